@@ -1,0 +1,23 @@
+# rsrio_add_test(NAME name SOURCES ... LIBS ... [LABELS ...])
+# A Catch2 test executable next to the code it tests, discovered into ctest case by case.
+# Label `concurrency` marks the tests that also run under the thread sanitizer.
+function(rsrio_add_test)
+  cmake_parse_arguments(T "" "NAME" "SOURCES;LIBS;LABELS" ${ARGN})
+  add_executable(${T_NAME} ${T_SOURCES})
+  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} Catch2::Catch2WithMain)
+  rsrio_target_options(${T_NAME})
+  set(props)
+  if(T_LABELS)
+    set(props PROPERTIES LABELS "${T_LABELS}")
+  endif()
+  if("concurrency" IN_LIST T_LABELS)
+    set_property(GLOBAL APPEND PROPERTY RSRIO_CONCURRENCY_TESTS ${T_NAME})
+  endif()
+  catch_discover_tests(${T_NAME} WORKING_DIRECTORY ${CMAKE_SOURCE_DIR} ${props}
+                       DISCOVERY_MODE PRE_TEST)
+endfunction()
+
+# rsrio_add_bench(target): a benchmark program run by the `bench` target.
+function(rsrio_add_bench target)
+  set_property(GLOBAL APPEND PROPERTY RSRIO_BENCHES ${target})
+endfunction()
