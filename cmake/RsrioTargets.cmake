@@ -21,3 +21,11 @@ endfunction()
 function(rsrio_add_bench target)
   set_property(GLOBAL APPEND PROPERTY RSRIO_BENCHES ${target})
 endfunction()
+
+# rsrio_add_program(name source libs...): one of the project's programs (installed to bin/).
+function(rsrio_add_program name source)
+  add_executable(${name} ${source})
+  target_link_libraries(${name} PRIVATE ${ARGN})
+  rsrio_target_options(${name})
+  install(TARGETS ${name} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endfunction()
