@@ -3,44 +3,24 @@
 #include "rsrio/driver/adc_layout.hpp"
 
 #include <cstdint>
-#include <fstream>
 #include <random>
 #include <stdexcept>
 #include <vector>
 
 #include <catch2/catch_test_macros.hpp>
 
+#include "test_pcap.hpp"
+
 namespace {
 
-// Payloads of the DCA1000 data packets (UDP port 4098) in a classic libpcap file, each
-// stripped of its 10-byte DCA1000 header (u32 sequence, 48-bit byte count), in file order.
+// Payloads of the DCA1000 data packets (UDP port 4098) of a capture, each stripped of its 10-byte
+// DCA1000 header (u32 sequence, 48-bit byte count), concatenated in file order.
 std::vector<std::uint8_t> dca1000_payloads(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  REQUIRE(f.good());
-  std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  REQUIRE(file.size() > 24);
-  REQUIRE((file[0] == 0xd4 && file[1] == 0xc3 && file[2] == 0xb2 && file[3] == 0xa1));  // LE, microseconds
-  auto u32 = [&](std::size_t o) {
-    return std::uint32_t(file[o]) | std::uint32_t(file[o + 1]) << 8 | std::uint32_t(file[o + 2]) << 16 |
-           std::uint32_t(file[o + 3]) << 24;
-  };
   std::vector<std::uint8_t> out;
-  std::size_t off = 24;
-  while (off + 16 <= file.size()) {
-    const std::uint32_t caplen = u32(off + 8);
-    const std::size_t pkt = off + 16;
-    REQUIRE(pkt + caplen <= file.size());
-    const std::size_t ip = pkt + 14;
-    const std::size_t ihl = (file[ip] & 0x0F) * 4u;
-    const std::size_t udp = ip + ihl;
-    const std::size_t dst_port = (std::size_t(file[udp + 2]) << 8) | file[udp + 3];
-    const std::size_t udp_len = (std::size_t(file[udp + 4]) << 8) | file[udp + 5];
-    const std::size_t payload = udp + 8, payload_len = udp_len - 8;
-    off = pkt + caplen;
-    if (dst_port != 4098) continue;  // the capture also holds config-port (4096) responses
-    REQUIRE(payload_len > 10);
-    out.insert(out.end(), file.begin() + static_cast<long>(payload + 10),
-               file.begin() + static_cast<long>(payload + payload_len));
+  for (const auto& g : rsrio::test::read_pcap_udp(path)) {
+    if (g.dst_port != 4098) continue;  // the capture also holds config-port (4096) responses
+    REQUIRE(g.payload.size() > 10);
+    out.insert(out.end(), g.payload.begin() + 10, g.payload.end());
   }
   return out;
 }
