@@ -1,0 +1,24 @@
+// Trajectory pictures (PNG through OpenCV): trajectories from above with a metre grid and a legend.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "rsrio/eval/trajectory.hpp"
+
+namespace rsrio::eval {
+
+struct PlotLine {
+  std::string label;
+  const Trajectory* trajectory;
+  cv::Scalar colour;  // BGR
+};
+
+/// Draws the xy plane, equal axes, a grid every 1/2/5/10... m, axis labels and a legend; writes
+/// `path` (PNG). Throws std::runtime_error when the file cannot be written.
+void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const std::string& title,
+             int width_px = 1000);
+
+}  // namespace rsrio::eval

@@ -1,0 +1,110 @@
+// Evaluation metrics on cases whose answers are worked out by hand.
+#include "rsrio/eval/trajectory.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
+
+#include <catch2/catch_approx.hpp>
+#include <catch2/catch_test_macros.hpp>
+
+#include "rsrio/eval/plot.hpp"
+
+using Catch::Approx;
+using namespace rsrio::eval;
+
+namespace {
+Trajectory from_points(const std::vector<Eigen::Vector3d>& pts, double yaw_deg = 0) {
+  Trajectory t;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    t.push_back({double(i), pts[i], Eigen::Quaterniond(Eigen::AngleAxisd(yaw_deg * M_PI / 180, Eigen::Vector3d::UnitZ()))});
+  return t;
+}
+}  // namespace
+
+TEST_CASE("a constant offset: 0.1 m without alignment, zero after SE(3) alignment", "[eval]") {
+  const auto ref = from_points({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}});
+  auto est = ref;
+  for (auto& p : est) p.p.x() += 0.1;
+  const auto none = ape(ref, est, Alignment::kNone);
+  CHECK(none.translation_m.rmse == Approx(0.1));
+  CHECK(none.translation_m.max == Approx(0.1));
+  CHECK(none.rotation_deg.max == Approx(0.0).margin(1e-9));
+  const auto se3 = ape(ref, est, Alignment::kSE3);
+  CHECK(se3.translation_m.rmse == Approx(0.0).margin(1e-9));
+  CHECK(se3.path_length_m == Approx(3.0));
+}
+
+TEST_CASE("a 90 degree turn about the origin: sqrt(2) per point unaligned, zero aligned", "[eval]") {
+  const auto ref = from_points({{1, 0, 0}, {0, 1, 0}, {-1, 0, 0}, {0, -1, 0}});
+  const auto est = transformed(ref, Eigen::Isometry3d(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())));
+  const auto none = ape(ref, est, Alignment::kNone);
+  CHECK(none.translation_m.rmse == Approx(std::sqrt(2.0)));
+  CHECK(none.rotation_deg.mean == Approx(90.0));
+  for (auto a : {Alignment::kSE3, Alignment::kSE2}) {
+    const auto r = ape(ref, est, a);
+    CHECK(r.translation_m.rmse == Approx(0.0).margin(1e-9));
+    CHECK(r.rotation_deg.max == Approx(0.0).margin(1e-6));
+  }
+}
+
+TEST_CASE("SE(2) alignment leaves a tilt that SE(3) removes", "[eval]") {
+  const auto ref = from_points({{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}, {1, 1, 1}});
+  const auto est = transformed(ref, Eigen::Isometry3d(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX())));
+  CHECK(ape(ref, est, Alignment::kSE3).translation_m.rmse == Approx(0.0).margin(1e-9));
+  CHECK(ape(ref, est, Alignment::kSE2).translation_m.rmse > 0.05);
+}
+
+TEST_CASE("error statistics as numpy computes them", "[eval]") {
+  const auto s = stats({1, 2, 3, 4});
+  CHECK(s.mean == Approx(2.5));
+  CHECK(s.median == Approx(2.5));
+  CHECK(s.rmse == Approx(std::sqrt(30.0 / 4)));
+  CHECK(s.std == Approx(std::sqrt(1.25)));
+  CHECK(s.min == 1);
+  CHECK(s.max == 4);
+}
+
+TEST_CASE("RPE per metre: a 10 % scale error gives 0.1 m per metre", "[eval]") {
+  std::vector<Eigen::Vector3d> pts, scaled;
+  for (int i = 0; i <= 5; ++i) {
+    pts.emplace_back(i, 0, 0);
+    scaled.emplace_back(1.1 * i, 0, 0);
+  }
+  const auto r = rpe(from_points(pts), from_points(scaled), 1.0);
+  CHECK(r.translation_m.count == 5);
+  CHECK(r.translation_m.rmse == Approx(0.1));
+  CHECK(r.rotation_deg.max == Approx(0.0).margin(1e-9));
+}
+
+TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are named", "[eval]") {
+  const auto dir = std::filesystem::temp_directory_path();
+  const std::string path = (dir / ("rsrio_eval_" + std::to_string(::getpid()) + ".tum")).string();
+  const auto ref = from_points({{0, 0, 0}, {1, 2, 3}, {4, 5, 6}}, 30);
+  write_tum(path, ref);
+  const auto back = read_tum(path);
+  REQUIRE(back.size() == 3);
+  CHECK(back[1].p.isApprox(ref[1].p));
+  CHECK(back[2].q.isApprox(ref[2].q, 1e-8));
+  Trajectory est = ref;
+  for (auto& p : est) p.t += 0.004;  // within evo's 10 ms
+  est.push_back({10.0, {}, {}});      // nothing near it in ref
+  Trajectory ra, ea;
+  associate(ref, est, 0.01, ra, ea);
+  CHECK(ra.size() == 3);
+  CHECK(ea[2].t == Approx(2.004));
+  std::ofstream(path) << "0 1 2 3 0 0 0 1\n1 2 3\n";
+  try {
+    read_tum(path);
+    FAIL("no error");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find(path + ":2:") != std::string::npos);
+  }
+  const std::string png = path + ".png";
+  plot_xy(png, {{"reference", &ref, {0, 0, 0}}}, "test");
+  CHECK(std::filesystem::file_size(png) > 1000);
+  std::filesystem::remove(path);
+  std::filesystem::remove(png);
+}
