@@ -90,7 +90,7 @@ TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are
   CHECK(back[2].q.isApprox(ref[2].q, 1e-8));
   Trajectory est = ref;
   for (auto& p : est) p.t += 0.004;  // within evo's 10 ms
-  est.push_back({10.0, {}, {}});      // nothing near it in ref
+  est.push_back({10.0, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity()});  // nothing near it in ref
   Trajectory ra, ea;
   associate(ref, est, 0.01, ra, ea);
   CHECK(ra.size() == 3);
