@@ -35,10 +35,12 @@ void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const 
   const cv::Scalar grid(225, 225, 225), ink(40, 40, 40);
   for (double g = std::ceil((cx - span / 2) / step) * step; g <= cx + span / 2; g += step) {
     cv::line(img, px(g, cy - span / 2), px(g, cy + span / 2), grid, 1);
+    if (std::abs(g) < step * 1e-6) g = 0;  // no "-0" labels
     cv::putText(img, cv::format("%g", g), px(g, cy - span / 2) + cv::Point(-12, 18), cv::FONT_HERSHEY_SIMPLEX, 0.4, ink);
   }
   for (double g = std::ceil((cy - span / 2) / step) * step; g <= cy + span / 2; g += step) {
     cv::line(img, px(cx - span / 2, g), px(cx + span / 2, g), grid, 1);
+    if (std::abs(g) < step * 1e-6) g = 0;
     cv::putText(img, cv::format("%g", g), px(cx - span / 2, g) + cv::Point(-50, 4), cv::FONT_HERSHEY_SIMPLEX, 0.4, ink);
   }
   cv::rectangle(img, px(cx - span / 2, cy + span / 2), px(cx + span / 2, cy - span / 2), ink, 1);
