@@ -6,6 +6,7 @@
 #include <random>
 #include <vector>
 
+#include <Eigen/LU>
 #include <catch2/catch_approx.hpp>
 #include <catch2/catch_test_macros.hpp>
 
