@@ -107,6 +107,10 @@ EgoVelocity EgoVelocityEstimator::estimate(std::span<const DopplerMeasurement> p
     }
   }
 
+  if (best_count < 0) {  // no minimal set was solvable: every point says the same thing
+    out.status = EgoVelocityStatus::kDegenerate;
+    return out;
+  }
   // Least squares on the inliers, then once more on the inliers of the refined solution.
   Eigen::Vector3d v = best;
   Eigen::Matrix3d ata;

@@ -109,8 +109,9 @@ TEST_CASE("too few points and degenerate geometry are refused, not guessed", "[e
   EgoVelocityEstimator est;
   std::vector<DopplerMeasurement> few(4, {direction(0, 0), -1.0});
   CHECK(est.estimate(few).status == rsrio::rio::EgoVelocityStatus::kTooFewPoints);
-  // Twenty points all in one direction: only the velocity along it is observable.
-  std::vector<DopplerMeasurement> line(20, {direction(10, 0), -0.7});
+  // Twenty points within half a degree of one direction: only the velocity along it is observable.
+  std::vector<DopplerMeasurement> line;
+  for (int i = 0; i < 20; ++i) line.push_back({direction(10 + 0.025 * i, 0.02 * (i % 3)), -0.7});
   const auto v = est.estimate(line);
   CHECK(v.status == rsrio::rio::EgoVelocityStatus::kDegenerate);
   // A scene that is mostly moving: no consensus.
