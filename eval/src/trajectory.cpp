@@ -163,12 +163,13 @@ ApeResult ape(const Trajectory& ref, const Trajectory& est, Alignment alignment)
 
 RpeResult rpe(const Trajectory& ref, const Trajectory& est, double delta_m) {
   if (ref.size() != est.size()) throw std::invalid_argument("rpe: trajectories must be associated first");
-  // evo filter_pairs_by_path (all_pairs=False): consecutive pairs delta metres apart on the reference.
+  // evo filter_pairs_by_path (all_pairs=False) on the ESTIMATE's path, as evo_rpe does by default
+  // (pairs_from_reference=False): consecutive pairs whenever delta metres have been travelled.
   std::vector<std::pair<std::size_t, std::size_t>> pairs;
   std::size_t last = 0;
   double travelled = 0;
-  for (std::size_t i = 1; i < ref.size(); ++i) {
-    travelled += (ref[i].p - ref[i - 1].p).norm();
+  for (std::size_t i = 1; i < est.size(); ++i) {
+    travelled += (est[i].p - est[i - 1].p).norm();
     if (travelled >= delta_m) {
       pairs.emplace_back(last, i);
       last = i;

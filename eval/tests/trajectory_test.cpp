@@ -79,6 +79,22 @@ TEST_CASE("RPE per metre: a 10 % scale error gives 0.1 m per metre", "[eval]") {
   CHECK(r.rotation_deg.max == Approx(0.0).margin(1e-9));
 }
 
+TEST_CASE("RPE takes its pairs from the estimate's path, as evo_rpe", "[eval]") {
+  // evo_rpe tum g e --delta 1 --delta_unit m on these files: pairs (0,1), (1,3); errors 0.1414, 0.1
+  const auto ref = from_points({{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 1, 0}});
+  const auto est = from_points({{0, 0.1, 0}, {1.1, 0, 0}, {2, 0.1, 0}, {3.2, 1, 0}});
+  const auto r = rpe(ref, est, 1.0);
+  CHECK(r.translation_m.count == 2);
+  CHECK(r.translation_m.rmse == Approx(0.122474).epsilon(1e-5));
+  CHECK(r.translation_m.min == Approx(0.1));
+  CHECK(r.translation_m.max == Approx(0.141421).epsilon(1e-5));
+  // evo_ape tum g e -a: rmse 0.085139, max 0.097996; with -r angle_deg: 2.165615 deg
+  const auto a = ape(ref, est, Alignment::kSE3);
+  CHECK(a.translation_m.rmse == Approx(0.085139).epsilon(1e-5));
+  CHECK(a.translation_m.max == Approx(0.097996).epsilon(1e-5));
+  CHECK(a.rotation_deg.rmse == Approx(2.165615).epsilon(1e-5));
+}
+
 TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are named", "[eval]") {
   const auto dir = std::filesystem::temp_directory_path();
   const std::string path = (dir / ("rsrio_eval_" + std::to_string(::getpid()) + ".tum")).string();
