@@ -10,6 +10,7 @@
 // The sign of z follows ego_velocity.hpp: z is the radar's own velocity in the radar frame.
 #pragma once
 
+#include <gtsam/geometry/Pose3.h>
 #include <gtsam/navigation/ImuBias.h>
 #include <gtsam/nonlinear/NonlinearFactor.h>
 
