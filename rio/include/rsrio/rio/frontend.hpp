@@ -1,0 +1,94 @@
+// The MRIO-style radar-inertial frontend: IMU preintegration (GTSAM CombinedImuFactor with bias
+// states) and one radar ego-velocity factor per radar frame, solved by Levenberg-Marquardt over a
+// bounded window of states whose oldest state is marginalised into a linear prior (Debian's GTSAM
+// 4.2 has no gtsam_unstable fixed-lag smoother, SPEC Sec. 3).
+//
+// Frames: world W is z-up with gravity (0, 0, -g); body B is the IMU; radar R sits at body_T_radar.
+// Radar stamps are on the radar clock: IMU time = radar time + radar_time_offset_s.
+#pragma once
+
+#include <deque>
+#include <optional>
+
+#include <gtsam/geometry/Pose3.h>
+#include <gtsam/navigation/CombinedImuFactor.h>
+#include <gtsam/nonlinear/NonlinearFactorGraph.h>
+#include <gtsam/nonlinear/Values.h>
+
+#include "rsrio/rio/ego_velocity.hpp"
+
+namespace rsrio::rio {
+
+struct FrontendOptions {
+  // IMU noise, continuous time (BMI055-class consumer MEMS by default).
+  double gravity = 9.81;
+  double accel_noise_density = 2.0e-3;   // m/s^2/sqrt(Hz)
+  double gyro_noise_density = 2.0e-4;    // rad/s/sqrt(Hz)
+  double accel_bias_random_walk = 3.0e-4;   // m/s^3/sqrt(Hz)
+  double gyro_bias_random_walk = 2.0e-5;    // rad/s^2/sqrt(Hz)
+  // Radar.
+  gtsam::Pose3 body_T_radar;                 // extrinsic
+  double radar_time_offset_s = 0.0;
+  double radar_velocity_sigma_scale = 1.0;   // inflate the ego-velocity covariance
+  double huber_k = 1.345;                    // robust loss on the whitened radar error
+  bool use_radar = true;                     // false: IMU only (the ablation)
+  // Window and priors.
+  int window_states = 20;
+  int lm_max_iterations = 15;
+  double prior_rotation_sigma = 0.01;        // rad (roll/pitch from gravity are good, yaw is the gauge)
+  double prior_position_sigma = 0.001;       // m
+  double prior_velocity_sigma = 0.1;         // m/s
+  double prior_accel_bias_sigma = 0.1;
+  double prior_gyro_bias_sigma = 0.01;
+  double init_imu_window_s = 0.2;            // IMU averaged for the initial roll and pitch
+};
+
+struct ImuSample {
+  double t = 0;  // s, IMU clock
+  gtsam::Vector3 accel = gtsam::Vector3::Zero();  // specific force, m/s^2, body frame
+  gtsam::Vector3 gyro = gtsam::Vector3::Zero();   // rad/s, body frame
+};
+
+struct FrontendState {
+  double t = 0;                                  // radar clock
+  gtsam::Pose3 world_T_body;
+  gtsam::Vector3 velocity_world = gtsam::Vector3::Zero();
+  gtsam::imuBias::ConstantBias bias;
+  gtsam::Matrix6 pose_covariance = gtsam::Matrix6::Identity();  // tangent [rotation, translation]
+  bool radar_used = false;                       // an ego-velocity factor was added for this frame
+};
+
+class RioFrontend {
+ public:
+  explicit RioFrontend(const FrontendOptions& options = {});
+
+  /// IMU samples in time order (IMU clock); older than the last state are ignored (counted).
+  void add_imu(const ImuSample& sample);
+  /// A radar frame at `t_radar` with its ego-velocity (rejected estimates add no radar factor).
+  /// Returns the state at that time, or nullopt while it cannot start (no IMU yet).
+  std::optional<FrontendState> add_radar(double t_radar, const EgoVelocity& ego);
+
+  int states() const { return static_cast<int>(window_.size()); }
+  std::uint64_t imu_ignored() const { return imu_ignored_; }
+  std::uint64_t frames_without_radar() const { return frames_without_radar_; }
+
+ private:
+  bool initialise(double t, const EgoVelocity& ego);
+  gtsam::Vector3 gyro_at(double t) const;
+  void preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const;
+  void add_radar_factor(std::uint64_t k, double t, const EgoVelocity& ego);
+  void marginalise_oldest();
+  FrontendState state(std::uint64_t k, double t_radar, bool radar_used);
+
+  FrontendOptions options_;
+  boost::shared_ptr<gtsam::PreintegrationCombinedParams> params_;
+  std::deque<ImuSample> imu_;
+  std::deque<std::pair<std::uint64_t, double>> window_;  // state index, IMU-clock time
+  gtsam::NonlinearFactorGraph graph_;
+  gtsam::Values values_;
+  std::uint64_t next_ = 0;
+  std::uint64_t imu_ignored_ = 0;
+  std::uint64_t frames_without_radar_ = 0;
+};
+
+}  // namespace rsrio::rio

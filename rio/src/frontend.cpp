@@ -1,0 +1,174 @@
+#include "rsrio/rio/frontend.hpp"
+
+#include <gtsam/inference/Symbol.h>
+#include <gtsam/linear/GaussianFactorGraph.h>
+#include <gtsam/nonlinear/LevenbergMarquardtOptimizer.h>
+#include <gtsam/nonlinear/LinearContainerFactor.h>
+#include <gtsam/nonlinear/Marginals.h>
+#include <gtsam/slam/PriorFactor.h>
+
+#include "rsrio/rio/radar_velocity_factor.hpp"
+
+namespace rsrio::rio {
+
+using gtsam::symbol_shorthand::B;
+using gtsam::symbol_shorthand::V;
+using gtsam::symbol_shorthand::X;
+
+RioFrontend::RioFrontend(const FrontendOptions& o) : options_(o) {
+  params_ = gtsam::PreintegrationCombinedParams::MakeSharedU(o.gravity);
+  params_->accelerometerCovariance = gtsam::I_3x3 * o.accel_noise_density * o.accel_noise_density;
+  params_->gyroscopeCovariance = gtsam::I_3x3 * o.gyro_noise_density * o.gyro_noise_density;
+  params_->integrationCovariance = gtsam::I_3x3 * 1e-8;
+  params_->biasAccCovariance = gtsam::I_3x3 * o.accel_bias_random_walk * o.accel_bias_random_walk;
+  params_->biasOmegaCovariance = gtsam::I_3x3 * o.gyro_bias_random_walk * o.gyro_bias_random_walk;
+  params_->biasAccOmegaInt = gtsam::I_6x6 * 1e-5;  // 4.2's default I_6x6 inflates the covariance
+}
+
+void RioFrontend::add_imu(const ImuSample& s) {
+  if ((!imu_.empty() && s.t <= imu_.back().t) || (!window_.empty() && s.t < window_.back().second)) {
+    ++imu_ignored_;
+    return;
+  }
+  imu_.push_back(s);
+  // Keep what the oldest state of the window may still need, and the initialisation window.
+  const double keep_from = window_.empty() ? s.t - 2 * options_.init_imu_window_s - 1.0 : window_.front().second - 0.5;
+  while (imu_.size() > 2 && imu_[1].t < keep_from) imu_.pop_front();
+}
+
+gtsam::Vector3 RioFrontend::gyro_at(double t) const {
+  if (imu_.empty()) return gtsam::Vector3::Zero();
+  for (std::size_t i = 1; i < imu_.size(); ++i)
+    if (imu_[i].t >= t) {
+      const auto& a = imu_[i - 1];
+      const auto& b = imu_[i];
+      const double w = std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0);
+      return (1 - w) * a.gyro + w * b.gyro;
+    }
+  return imu_.back().gyro;
+}
+
+// Zero-order hold of each IMU sample until the next, cut exactly at t0 and t1.
+void RioFrontend::preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const {
+  for (std::size_t i = 0; i < imu_.size(); ++i) {
+    const double a = std::max(imu_[i].t, t0);
+    const double b = std::min(i + 1 < imu_.size() ? imu_[i + 1].t : t1, t1);
+    if (b > a + 1e-9) pim.integrateMeasurement(imu_[i].accel, imu_[i].gyro, b - a);
+  }
+  if (pim.deltaTij() < 1e-9) pim.integrateMeasurement(imu_.back().accel, imu_.back().gyro, std::max(t1 - t0, 1e-6));
+}
+
+bool RioFrontend::initialise(double t, const EgoVelocity& ego) {
+  gtsam::Vector3 mean_acc = gtsam::Vector3::Zero();
+  int n = 0;
+  for (const auto& s : imu_)
+    if (s.t <= t && s.t >= t - options_.init_imu_window_s) {
+      mean_acc += s.accel;
+      ++n;
+    }
+  if (n == 0) return false;
+  mean_acc /= n;
+  // Roll and pitch put the measured specific force (gravity reaction) along body z; yaw is the gauge.
+  const double roll = std::atan2(mean_acc.y(), mean_acc.z());
+  const double pitch = std::atan2(-mean_acc.x(), std::hypot(mean_acc.y(), mean_acc.z()));
+  const gtsam::Pose3 pose(gtsam::Rot3::Ypr(0, pitch, roll), gtsam::Point3::Zero());
+  gtsam::Vector3 v_world = gtsam::Vector3::Zero();
+  if (ego.ok()) {
+    const gtsam::Rot3& R_BR = options_.body_T_radar.rotation();
+    const gtsam::Vector3 v_body =
+        R_BR.rotate(ego.velocity) - gyro_at(t).cross(options_.body_T_radar.translation());
+    v_world = pose.rotation().rotate(v_body);
+  }
+  const std::uint64_t k = next_++;
+  values_.insert(X(k), pose);
+  values_.insert(V(k), v_world);
+  values_.insert(B(k), gtsam::imuBias::ConstantBias());
+  gtsam::Vector6 pose_sigmas;
+  pose_sigmas << gtsam::Vector3::Constant(options_.prior_rotation_sigma), gtsam::Vector3::Constant(options_.prior_position_sigma);
+  graph_.addPrior(X(k), pose, gtsam::noiseModel::Diagonal::Sigmas(pose_sigmas));
+  graph_.addPrior(V(k), v_world, gtsam::noiseModel::Isotropic::Sigma(3, options_.prior_velocity_sigma));
+  gtsam::Vector6 bias_sigmas;
+  bias_sigmas << gtsam::Vector3::Constant(options_.prior_accel_bias_sigma),
+      gtsam::Vector3::Constant(options_.prior_gyro_bias_sigma);
+  graph_.addPrior(B(k), gtsam::imuBias::ConstantBias(), gtsam::noiseModel::Diagonal::Sigmas(bias_sigmas));
+  window_.emplace_back(k, t);
+  add_radar_factor(k, t, ego);
+  return true;
+}
+
+void RioFrontend::add_radar_factor(std::uint64_t k, double t, const EgoVelocity& ego) {
+  if (!options_.use_radar || !ego.ok()) {
+    ++frames_without_radar_;
+    return;
+  }
+  const double s2 = options_.radar_velocity_sigma_scale * options_.radar_velocity_sigma_scale;
+  auto gaussian = gtsam::noiseModel::Gaussian::Covariance(ego.covariance * s2 + gtsam::I_3x3 * 1e-6);
+  auto robust = gtsam::noiseModel::Robust::Create(gtsam::noiseModel::mEstimator::Huber::Create(options_.huber_k), gaussian);
+  graph_.emplace_shared<RadarVelocityFactor>(X(k), V(k), B(k), ego.velocity, gyro_at(t), options_.body_T_radar, robust);
+}
+
+void RioFrontend::marginalise_oldest() {
+  const std::uint64_t j = window_.front().first;
+  const gtsam::KeyVector old{X(j), V(j), B(j)};
+  gtsam::NonlinearFactorGraph involved, kept;
+  for (const auto& f : graph_) {
+    if (!f) continue;
+    bool touches = false;
+    for (gtsam::Key key : f->keys()) touches |= std::find(old.begin(), old.end(), key) != old.end();
+    (touches ? involved : kept).push_back(f);
+  }
+  // p(old, rest) = p(old | rest) p(rest): keep p(rest) as a linear prior at today's estimate.
+  const auto linear = involved.linearize(values_);
+  const auto [bayes_tree, marginal] = linear->eliminatePartialMultifrontal(old);
+  for (const auto& gf : *marginal)
+    if (gf) kept.push_back(boost::make_shared<gtsam::LinearContainerFactor>(gf, values_));
+  graph_ = kept;
+  for (gtsam::Key key : old) values_.erase(key);
+  window_.pop_front();
+}
+
+FrontendState RioFrontend::state(std::uint64_t k, double t_radar, bool radar_used) {
+  FrontendState s;
+  s.t = t_radar;
+  s.world_T_body = values_.at<gtsam::Pose3>(X(k));
+  s.velocity_world = values_.at<gtsam::Vector3>(V(k));
+  s.bias = values_.at<gtsam::imuBias::ConstantBias>(B(k));
+  s.radar_used = radar_used;
+  try {
+    s.pose_covariance = gtsam::Marginals(graph_, values_).marginalCovariance(X(k));
+  } catch (const std::exception&) {
+    s.pose_covariance = gtsam::Matrix6::Identity() * 1e3;  // indeterminate: say so, do not invent
+  }
+  return s;
+}
+
+std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVelocity& ego) {
+  const double t = t_radar + options_.radar_time_offset_s;
+  if (window_.empty()) {
+    if (!initialise(t, ego)) return std::nullopt;
+    return state(window_.back().first, t_radar, options_.use_radar && ego.ok());
+  }
+  const auto [prev, t_prev] = window_.back();
+  if (t <= t_prev || imu_.empty()) return std::nullopt;
+  const auto bias_prev = values_.at<gtsam::imuBias::ConstantBias>(B(prev));
+  gtsam::PreintegratedCombinedMeasurements pim(params_, bias_prev);
+  preintegrate(t_prev, t, pim);
+  const std::uint64_t k = next_++;
+  const gtsam::NavState predicted =
+      pim.predict(gtsam::NavState(values_.at<gtsam::Pose3>(X(prev)), values_.at<gtsam::Vector3>(V(prev))), bias_prev);
+  values_.insert(X(k), predicted.pose());
+  values_.insert(V(k), predicted.v());
+  values_.insert(B(k), bias_prev);
+  graph_.emplace_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim);
+  window_.emplace_back(k, t);
+  add_radar_factor(k, t, ego);
+
+  gtsam::LevenbergMarquardtParams lm;
+  lm.setMaxIterations(options_.lm_max_iterations);
+  lm.setVerbosityLM("SILENT");
+  values_ = gtsam::LevenbergMarquardtOptimizer(graph_, values_, lm).optimize();
+  if (static_cast<int>(window_.size()) > options_.window_states) marginalise_oldest();
+  return state(k, t_radar, options_.use_radar && ego.ok());
+}
+
+}  // namespace rsrio::rio
