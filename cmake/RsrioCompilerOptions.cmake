@@ -8,6 +8,13 @@ set(RSRIO_WARNINGS -Wall -Wextra -Wpedantic -Werror -Wshadow -Wnon-virtual-dtor 
 if(RSRIO_SANITIZE)
   add_compile_options(-fsanitize=${RSRIO_SANITIZE} -fno-omit-frame-pointer -fno-sanitize-recover=all)
   add_link_options(-fsanitize=${RSRIO_SANITIZE})
+  if(RSRIO_SANITIZE MATCHES "address")
+    # Eigen stops trusting malloc's 16-byte alignment under __SANITIZE_ADDRESS__ and switches to its
+    # own offset allocator, while Debian's libgtsam (built without ASan) frees the same matrices with
+    # plain free(): a bad-free in NoiseModelFactor::linearize. ASan's malloc is 16-byte aligned on
+    # x86-64 and arm64, so telling Eigen so keeps both sides on one allocator.
+    add_compile_definitions(EIGEN_MALLOC_ALREADY_ALIGNED=1)
+  endif()
 endif()
 
 function(rsrio_target_options target)
