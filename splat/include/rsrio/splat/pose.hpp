@@ -1,0 +1,61 @@
+// Poses, their increments, and the radar velocity from two poses.
+//
+// A pose is the paper's T_i = radar_T_world: it maps world points into the radar frame,
+// p_radar = R p_world + t (Eigen::Isometry3d).
+//
+// 6-DoF increments are LEFT perturbations expressed in the radar frame (MonoGS style):
+//     radar_T_world <- Exp(delta) * radar_T_world,   delta = (rho, omega), translation FIRST.
+// To first order a radar-frame point moves by rho + omega x p_radar. Gradients with respect to a
+// pose are gradients with respect to delta at delta = 0 (Vector6d, same order).
+//
+// 3-DoF planar poses (the paper's x, y, yaw) are the radar's position and heading in the world:
+// world_T_radar = [Rz(yaw) Ry(pitch) Rx(roll) | (x, y, z)] with z, roll and pitch held fixed.
+// Their gradients follow from the 6-DoF left gradient by planar_gradient().
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace rsrio::splat {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix36d = Eigen::Matrix<double, 3, 6>;
+
+/// [v]x, the cross-product matrix.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+/// Rotation vector -> rotation matrix (Rodrigues, series near 0).
+Eigen::Matrix3d so3_exp(const Eigen::Vector3d& omega);
+/// se(3) (rho, omega) -> SE(3).
+Eigen::Isometry3d se3_exp(const Vector6d& delta);
+/// radar_T_world <- Exp(delta) * radar_T_world.
+void apply_left_increment(Eigen::Isometry3d& radar_T_world, const Vector6d& delta);
+
+struct PlanarPose {
+  double x = 0, y = 0, yaw = 0;       // optimised: radar position in the world and heading [m, rad]
+  double z = 0, roll = 0, pitch = 0;  // held fixed
+
+  Eigen::Isometry3d world_T_radar() const;
+  Eigen::Isometry3d radar_T_world() const { return world_T_radar().inverse(); }
+  /// ZYX Euler decomposition of a world_T_radar.
+  static PlanarPose from_world_T_radar(const Eigen::Isometry3d& world_T_radar);
+};
+
+/// d(delta)/d(x, y, yaw): the left increment of radar_T_world that a change of the planar
+/// parameters makes, to first order (6 x 3).
+Eigen::Matrix<double, 6, 3> left_increment_jacobian(const PlanarPose& pose);
+/// Gradient with respect to (x, y, yaw) from the gradient with respect to the left increment.
+Eigen::Vector3d planar_gradient(const PlanarPose& pose, const Vector6d& grad_left);
+
+/// The radar velocity, in the radar frame of the current pose, by the backward difference of
+/// the radar positions: v = R_k (c_k - c_{k-1}) / dt with c = -R^T t the radar position in the
+/// world. Jacobians are with respect to the left increments of the two poses.
+struct RadarVelocity {
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Matrix36d d_current = Matrix36d::Zero();   // d v / d delta_k
+  Matrix36d d_previous = Matrix36d::Zero();  // d v / d delta_{k-1}
+};
+/// dt must be positive (std::invalid_argument otherwise).
+RadarVelocity radar_velocity_from_poses(const Eigen::Isometry3d& radar_T_world_current,
+                                        const Eigen::Isometry3d& radar_T_world_previous, double dt);
+
+}  // namespace rsrio::splat

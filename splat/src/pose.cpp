@@ -1,0 +1,117 @@
+#include "rsrio/splat/pose.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace rsrio::splat {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+Eigen::Matrix3d so3_exp(const Eigen::Vector3d& omega) {
+  const double theta2 = omega.squaredNorm();
+  const Eigen::Matrix3d k = skew(omega);
+  double a, b;  // sin(t)/t, (1 - cos t)/t^2
+  if (theta2 < 1e-10) {
+    a = 1.0 - theta2 / 6.0;
+    b = 0.5 - theta2 / 24.0;
+  } else {
+    const double theta = std::sqrt(theta2);
+    a = std::sin(theta) / theta;
+    b = (1.0 - std::cos(theta)) / theta2;
+  }
+  return Eigen::Matrix3d::Identity() + a * k + b * k * k;
+}
+
+Eigen::Isometry3d se3_exp(const Vector6d& delta) {
+  const Eigen::Vector3d rho = delta.head<3>();
+  const Eigen::Vector3d omega = delta.tail<3>();
+  const double theta2 = omega.squaredNorm();
+  const Eigen::Matrix3d k = skew(omega);
+  double b, c;  // (1 - cos t)/t^2, (t - sin t)/t^3
+  if (theta2 < 1e-10) {
+    b = 0.5 - theta2 / 24.0;
+    c = 1.0 / 6.0 - theta2 / 120.0;
+  } else {
+    const double theta = std::sqrt(theta2);
+    b = (1.0 - std::cos(theta)) / theta2;
+    c = (theta - std::sin(theta)) / (theta2 * theta);
+  }
+  const Eigen::Matrix3d v = Eigen::Matrix3d::Identity() + b * k + c * k * k;
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = so3_exp(omega);
+  t.translation() = v * rho;
+  return t;
+}
+
+void apply_left_increment(Eigen::Isometry3d& radar_T_world, const Vector6d& delta) {
+  radar_T_world = se3_exp(delta) * radar_T_world;
+  // Re-orthonormalise so that rounding never accumulates over thousands of increments.
+  const Eigen::Quaterniond q(radar_T_world.linear());
+  radar_T_world.linear() = q.normalized().toRotationMatrix();
+}
+
+Eigen::Isometry3d PlanarPose::world_T_radar() const {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  t.translation() = Eigen::Vector3d(x, y, z);
+  return t;
+}
+
+PlanarPose PlanarPose::from_world_T_radar(const Eigen::Isometry3d& world_T_radar) {
+  const Eigen::Matrix3d& r = world_T_radar.linear();
+  PlanarPose p;
+  p.yaw = std::atan2(r(1, 0), r(0, 0));
+  p.pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
+  p.roll = std::atan2(r(2, 1), r(2, 2));
+  p.x = world_T_radar.translation().x();
+  p.y = world_T_radar.translation().y();
+  p.z = world_T_radar.translation().z();
+  return p;
+}
+
+Eigen::Matrix<double, 6, 3> left_increment_jacobian(const PlanarPose& pose) {
+  // p_radar = R_wr^T (p_world - c). A change dc of the position moves radar-frame points by
+  // -R_wr^T dc (rho); a change of yaw rotates the world about z: R_wr <- Rz(d) R_wr, which is
+  // the left increment omega = -d R_wr^T e_z.
+  const Eigen::Matrix3d r_wr = pose.world_T_radar().linear();
+  Eigen::Matrix<double, 6, 3> j = Eigen::Matrix<double, 6, 3>::Zero();
+  j.block<3, 1>(0, 0) = -r_wr.transpose().col(0);
+  j.block<3, 1>(0, 1) = -r_wr.transpose().col(1);
+  j.block<3, 1>(3, 2) = -r_wr.transpose().col(2);
+  return j;
+}
+
+Eigen::Vector3d planar_gradient(const PlanarPose& pose, const Vector6d& grad_left) {
+  return left_increment_jacobian(pose).transpose() * grad_left;
+}
+
+RadarVelocity radar_velocity_from_poses(const Eigen::Isometry3d& radar_T_world_current,
+                                        const Eigen::Isometry3d& radar_T_world_previous, double dt) {
+  if (!(dt > 0) || !std::isfinite(dt))
+    throw std::invalid_argument("radar_velocity_from_poses: dt must be positive");
+  const Eigen::Matrix3d& r_k = radar_T_world_current.linear();
+  const Eigen::Matrix3d& r_km1 = radar_T_world_previous.linear();
+  const Eigen::Vector3d c_k = -r_k.transpose() * radar_T_world_current.translation();
+  const Eigen::Vector3d c_km1 = -r_km1.transpose() * radar_T_world_previous.translation();
+  RadarVelocity out;
+  out.velocity = r_k * (c_k - c_km1) / dt;
+  // Left increment (rho, omega) of T_k: c_k moves by -R_k^T rho and R_k <- Exp(omega) R_k, so
+  // v <- v + omega x v - rho / dt.
+  out.d_current.leftCols<3>() = -Eigen::Matrix3d::Identity() / dt;
+  out.d_current.rightCols<3>() = -skew(out.velocity);
+  // Left increment of T_{k-1}: c_{k-1} moves by -R_{k-1}^T rho; a pure rotation about the radar
+  // origin leaves the position alone.
+  out.d_previous.leftCols<3>() = r_k * r_km1.transpose() / dt;
+  out.d_previous.rightCols<3>().setZero();
+  return out;
+}
+
+}  // namespace rsrio::splat

@@ -1,0 +1,152 @@
+#include <catch2/catch_test_macros.hpp>
+#include <catch2/matchers/catch_matchers_floating_point.hpp>
+
+#include <cstdio>
+#include <random>
+
+#include "rsrio/splat/losses.hpp"
+#include "splat_test_support.hpp"
+
+using namespace rsrio::splat;
+using namespace rsrio::splat::test;
+
+namespace {
+
+Image<double> random_image(std::mt19937_64& rng, int rows, int cols, double lo, double hi) {
+  std::uniform_real_distribution<double> u(lo, hi);
+  Image<double> m(rows, cols);
+  for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = u(rng);
+  return m;
+}
+
+// Finite differences of f at a sample of pixels of x against grad.
+double check_image_gradient(std::mt19937_64& rng, Image<double>& x, const Image<double>& grad,
+                            const std::function<double(const Image<double>&)>& f, double h, int samples) {
+  std::uniform_int_distribution<Eigen::Index> pick(0, x.size() - 1);
+  std::vector<double> a, n;
+  for (int s = 0; s < samples; ++s) {
+    const Eigen::Index k = pick(rng);
+    const double x0 = x.data()[k];
+    n.push_back(central_difference(
+        [&](double v) {
+          x.data()[k] = v;
+          return f(x);
+        },
+        x0, h));
+    x.data()[k] = x0;
+    a.push_back(grad.data()[k]);
+  }
+  return relative_error(a, n);
+}
+
+}  // namespace
+
+TEST_CASE("L1 and SSIM gradients match central differences", "[splat][loss]") {
+  std::mt19937_64 rng(5);
+  Image<double> x = random_image(rng, 40, 36, 0.0, 1.0);
+  // y correlated with x so that SSIM is in its working range.
+  const Image<double> y = (0.7 * x + 0.3 * random_image(rng, 40, 36, 0.0, 1.0)).eval();
+  Image<double> grad;
+  l1_loss(x, y, &grad);
+  const double err_l1 = check_image_gradient(
+      rng, x, grad, [&](const Image<double>& v) { return l1_loss<double>(v, y, nullptr); }, 1e-7, 200);
+  double err_ssim[2];
+  int idx = 0;
+  for (int window : {11, 7}) {
+    SsimOptions o;
+    o.window = window;
+    Ssim<double> ssim(o);
+    ssim.evaluate(x, y, &grad);
+    err_ssim[idx++] = check_image_gradient(
+        rng, x, grad, [&](const Image<double>& v) { return ssim.evaluate(v, y, nullptr); }, 1e-6, 300);
+    CHECK_THAT(ssim.evaluate(x, x, nullptr), Catch::Matchers::WithinAbs(1.0, 1e-12));
+  }
+  std::printf("loss gradcheck: L1 %.2e SSIM(11x11) %.2e SSIM(7x7) %.2e\n", err_l1, err_ssim[0], err_ssim[1]);
+  CHECK(err_l1 < 1e-3);
+  CHECK(err_ssim[0] < 1e-3);
+  CHECK(err_ssim[1] < 1e-3);
+}
+
+TEST_CASE("The combined loss on compressed images: gradient w.r.t. the linear rendered image", "[splat][loss]") {
+  std::mt19937_64 rng(8);
+  // Linear power over five decades.
+  Image<double> rendered = random_image(rng, 48, 40, -5.0, 0.0).unaryExpr([](double e) { return std::pow(10.0, e); });
+  const Image<double> measured_linear =
+      random_image(rng, 48, 40, -5.0, 0.0).unaryExpr([](double e) { return std::pow(10.0, e); });
+  for (bool logarithmic : {true, false}) {
+    ImageLossOptions o;
+    o.compression.logarithmic = logarithmic;
+    o.compression.reference = 0.5;
+    o.compression.floor = 1e-3;
+    o.skip_near_range_bins = 4;
+    ImageLoss<double> loss(o);
+    Image<double> measured, grad;
+    loss.prepare_measurement(measured_linear, measured);
+    loss.evaluate(rendered, measured, &grad);
+    CHECK(grad.topRows(4).isZero());
+    // Relative steps: pixel values span five decades.
+    std::uniform_int_distribution<Eigen::Index> pick(0, rendered.size() - 1);
+    std::vector<double> a, n;
+    for (int s = 0; s < 300; ++s) {
+      const Eigen::Index k = pick(rng);
+      const double x0 = rendered.data()[k];
+      n.push_back(central_difference(
+          [&](double v) {
+            rendered.data()[k] = v;
+            return loss.evaluate(rendered, measured, nullptr);
+          },
+          x0, 1e-6 * x0));
+      rendered.data()[k] = x0;
+      a.push_back(grad.data()[k] * x0);  // compare x dL/dx: every pixel counts on the same scale
+      n.back() *= x0;
+    }
+    const double err = relative_error(a, n);
+    std::printf("image loss gradcheck (%s): %.2e\n", logarithmic ? "log" : "linear", err);
+    CHECK(err < 1e-3);
+  }
+  // The map: reference -> 1, floor * reference -> log 2 / log(1 + 1/floor), 0 -> 0.
+  CompressionOptions c;
+  c.reference = 2.0;
+  c.floor = 1e-2;
+  Image<double> in(1, 3), out;
+  in << 2.0, 0.02, 0.0;
+  compress(in, c, out);
+  CHECK_THAT(out(0, 0), Catch::Matchers::WithinRel(1.0, 1e-12));
+  CHECK_THAT(out(0, 1), Catch::Matchers::WithinRel(std::log(2.0) / std::log(101.0), 1e-12));
+  CHECK(out(0, 2) == 0.0);
+  const std::vector<float> values = {0.f, 1.f, 2.f, 3.f, 4.f, 5.f};
+  CHECK(percentile_reference(values, 100.0) == 5.0);
+  CHECK(percentile_reference(values, 0.0) == 1.0);
+}
+
+TEST_CASE("Scale regulariser: value and gradient", "[splat][loss]") {
+  std::mt19937_64 rng(2);
+  GaussianScene scene = random_scene(rng, Eigen::Isometry3d::Identity(), 20, 2, 8, 50, 15, 0.2, 2.0);
+  ScaleRegulariserOptions o;
+  o.max_scale_m = 1.0;
+  o.weight = 10.0;
+  SceneGradients g;
+  g.reset(scene.size());
+  const double value = scale_regulariser(scene, {}, o, &g);
+  CHECK(value > 0);
+  std::vector<double> numeric(g.log_scales.size());
+  for (std::size_t k = 0; k < numeric.size(); ++k) {
+    const double x0 = scene.log_scales()[k];
+    numeric[k] = central_difference(
+        [&](double v) {
+          scene.mutable_log_scales()[k] = v;
+          return scale_regulariser(scene, {}, o, nullptr);
+        },
+        x0, 1e-7);
+    scene.mutable_log_scales()[k] = x0;
+  }
+  const double err = relative_error(g.log_scales, numeric);
+  std::printf("scale regulariser gradcheck: %.2e\n", err);
+  CHECK(err < 1e-3);
+  // A list restricts the mean to the listed Gaussians.
+  const std::vector<std::uint32_t> one = {0};
+  SceneGradients g1;
+  g1.reset(scene.size());
+  scale_regulariser(scene, one, o, &g1);
+  for (std::size_t i = 1; i < scene.size(); ++i) CHECK(g1.log_scales[3 * i] == 0.0);
+}

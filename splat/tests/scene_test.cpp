@@ -1,0 +1,150 @@
+#include <catch2/catch_test_macros.hpp>
+#include <catch2/matchers/catch_matchers_floating_point.hpp>
+
+#include <algorithm>
+#include <limits>
+#include <random>
+
+#include "rsrio/splat/gaussian_scene.hpp"
+
+using namespace rsrio::splat;
+
+namespace {
+
+std::vector<std::uint32_t> brute_force(const GaussianScene& scene, const Eigen::Vector3d& c, double radius) {
+  std::vector<std::uint32_t> out;
+  for (std::size_t i = 0; i < scene.size(); ++i)
+    if ((scene.mean(i) - c).squaredNorm() <= radius * radius) out.push_back(static_cast<std::uint32_t>(i));
+  return out;
+}
+
+std::vector<Eigen::Vector3d> random_points(std::mt19937_64& rng, int n, double half) {
+  std::uniform_real_distribution<double> u(-half, half);
+  std::vector<Eigen::Vector3d> p(n);
+  for (auto& v : p) v = Eigen::Vector3d(u(rng), u(rng), 0.2 * u(rng));
+  return p;
+}
+
+}  // namespace
+
+TEST_CASE("The spatial hash returns exactly what a brute-force scan returns", "[splat][scene]") {
+  std::mt19937_64 rng(1);
+  SceneOptions o;
+  o.index_cell_m = 1.5;
+  GaussianScene scene(o);
+  scene.add_points(random_points(rng, 20000, 30.0), {}, Eigen::Vector3d::Zero());
+  std::uniform_real_distribution<double> u(-35, 35), ur(0.0, 12.0);
+  std::vector<std::uint32_t> found;
+  std::size_t total = 0;
+  for (int q = 0; q < 200; ++q) {
+    const Eigen::Vector3d c(u(rng), u(rng), 0.1 * u(rng));
+    const double radius = q == 0 ? 100.0 : ur(rng);
+    scene.query_radius(c, radius, found);
+    const auto expected = brute_force(scene, c, radius);
+    REQUIRE(found == expected);
+    total += found.size();
+  }
+  CHECK(total > 1000);
+  // After the means move, the index follows.
+  auto means = scene.mutable_means();
+  for (double& m : means) m += 0.7;
+  const Eigen::Vector3d c(3, -2, 0);
+  scene.query_radius(c, 5.0, found);
+  CHECK(found == brute_force(scene, c, 5.0));
+  // Points exactly on the radius are inside.
+  GaussianScene tiny;
+  tiny.add(Eigen::Vector3d(2, 0, 0), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), 0);
+  tiny.query_radius(Eigen::Vector3d::Zero(), 2.0, found);
+  CHECK(found.size() == 1);
+}
+
+TEST_CASE("The cap evicts the Gaussians farthest from the given position", "[splat][scene]") {
+  std::mt19937_64 rng(2);
+  SceneOptions o;
+  o.max_gaussians = 500;
+  GaussianScene scene(o);
+  const auto points = random_points(rng, 800, 20.0);
+  const Eigen::Vector3d center(5, 5, 0);
+  const SceneRemap remap = scene.add_points(points, {}, center);
+  REQUIRE(scene.size() == 500);
+  CHECK(scene.evicted() == 300);
+  CHECK(remap.size() == 500);
+  CHECK(std::all_of(remap.begin(), remap.end(), [](std::int32_t v) { return v == -1; }));
+  std::vector<double> dist;
+  for (const auto& p : points) dist.push_back((p - center).norm());
+  std::sort(dist.begin(), dist.end());
+  double farthest_kept = 0;
+  for (std::size_t i = 0; i < scene.size(); ++i) farthest_kept = std::max(farthest_kept, (scene.mean(i) - center).norm());
+  CHECK(farthest_kept == dist[499]);
+  // Order of survivors is kept; a second batch evicts old far ones.
+  const SceneRemap again = scene.add_points(random_points(rng, 100, 3.0), {}, center);
+  CHECK(scene.size() == 500);
+  CHECK(std::is_sorted(again.begin(), std::find(again.begin(), again.end(), -1)));
+}
+
+TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
+  SceneOptions o;
+  o.densify_grad_threshold = 1e-3;
+  o.densify_split_scale_m = 0.25;
+  GaussianScene scene(o);
+  const Eigen::Quaterniond id = Eigen::Quaterniond::Identity();
+  scene.add(Eigen::Vector3d(1, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), std::log(1.0));   // clone
+  scene.add(Eigen::Vector3d(2, 0, 0), id, Eigen::Vector3d(std::log(0.5), std::log(0.1), std::log(0.1)),
+            std::log(2.0));  // split
+  scene.add(Eigen::Vector3d(3, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), std::log(1.0));   // quiet
+  scene.add(Eigen::Vector3d(4, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), std::log(1e-12));  // prune: return
+  scene.add(Eigen::Vector3d(5, 0, 0), id, Eigen::Vector3d::Constant(std::log(5.0)), std::log(1.0));   // prune: size
+  // NaN never enters.
+  CHECK_FALSE(scene.add(Eigen::Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0), id,
+                        Eigen::Vector3d::Zero(), 0.0));
+  CHECK_FALSE(scene.add(Eigen::Vector3d(1, 1, 1), Eigen::Quaterniond(0, 0, 0, 0), Eigen::Vector3d::Zero(), 0.0));
+  CHECK(scene.rejected_non_finite() == 2);
+  CHECK(scene.size() == 5);
+
+  SceneRemap remap = scene.prune();
+  REQUIRE(scene.size() == 3);
+  CHECK(remap == SceneRemap{0, 1, 2});
+
+  SceneGradients g;
+  g.reset(scene.size());
+  g.image_mean_grad_norm = {0.01, 0.02, 1e-5};
+  g.visible_count = {2, 4, 1};
+  scene.accumulate_densify_stats(g);
+  remap = scene.densify(Eigen::Vector3d::Zero());
+  // Survivor first (the quiet one), then clone pair, then split pair.
+  REQUIRE(scene.size() == 5);
+  CHECK(remap == SceneRemap{2, -1, -1, -1, -1});
+  CHECK_THAT(scene.return_ratio(1) + scene.return_ratio(2), Catch::Matchers::WithinRel(1.0, 1e-12));
+  CHECK_THAT(scene.return_ratio(3) + scene.return_ratio(4), Catch::Matchers::WithinRel(2.0, 1e-12));
+  CHECK_THAT(scene.scale(1)[0], Catch::Matchers::WithinRel(0.1, 1e-12));   // clone keeps the size
+  CHECK_THAT(scene.scale(3)[0], Catch::Matchers::WithinRel(0.5 / 1.6, 1e-12));  // split shrinks
+  CHECK_THAT((scene.mean(1) - scene.mean(2)).norm(), Catch::Matchers::WithinRel(0.1, 1e-9));
+  CHECK(std::all_of(scene.densify_count().begin(), scene.densify_count().end(), [](auto c) { return c == 0; }));
+
+  // A NaN that got in through a parameter block is removed by sanitize() and counted.
+  scene.mutable_log_scales()[3 * 2 + 1] = std::numeric_limits<double>::infinity();
+  scene.mutable_rotations()[4 * 0] = 0;  // zero quaternion -> identity
+  scene.mutable_rotations()[4 * 0 + 1] = 0;
+  scene.mutable_rotations()[4 * 0 + 2] = 0;
+  scene.mutable_rotations()[4 * 0 + 3] = 0;
+  remap = scene.sanitize();
+  CHECK(scene.size() == 4);
+  CHECK(scene.removed_non_finite() == 1);
+  CHECK(remap == SceneRemap{0, 1, 3, 4});
+  CHECK(scene.rotations()[0] == 1.0);
+}
+
+TEST_CASE("add_points keeps a minimum spacing to existing and new Gaussians", "[splat][scene]") {
+  GaussianScene scene;
+  AddPointsOptions a;
+  a.min_spacing_m = 0.5;
+  const std::vector<Eigen::Vector3d> first = {{0, 0, 0}, {0.3, 0, 0}, {1, 0, 0}};
+  scene.add_points(first, a, Eigen::Vector3d::Zero());
+  CHECK(scene.size() == 2);
+  const std::vector<Eigen::Vector3d> second = {{1.2, 0, 0}, {2, 0, 0}, {2.1, 0, 0},
+                                               {std::numeric_limits<double>::quiet_NaN(), 0, 0}};
+  scene.add_points(second, a, Eigen::Vector3d::Zero());
+  CHECK(scene.size() == 3);
+  CHECK(scene.rejected_non_finite() == 1);
+  CHECK_THROWS(scene.add_points(second, AddPointsOptions{-1.0, 1.0, 0.0}, Eigen::Vector3d::Zero()));
+}
