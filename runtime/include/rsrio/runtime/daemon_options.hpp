@@ -1,0 +1,57 @@
+// The daemon's own options (section `daemon:` of its YAML file): where radar and IMU come from,
+// where poses go, queue capacities and thread placement. The estimator's options live in their
+// own sections (radar:, dsp:, ...), loaded by their stages.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace rsrio {
+
+class OptionsNode;
+
+struct DaemonOptions {
+  // Sources. radar_source: "dca1000://BOARD_IP[:HOST_IP]" (live, or the board emulator) or
+  // "recording:PATH" (a recording replayed at its own pace, IMU from it too when imu_source is
+  // "recording").
+  std::string radar_source = "dca1000://192.168.33.180";
+  std::string imu_source = "dds";         // dds | recording
+  std::string imu_topic = "/imu";         // ROS 2 name; DDS topic rt/imu
+  double playback_rate = 1.0;             // recording source: 1 = real time
+
+  // Output (ROS 2 names; REP-105 frames).
+  std::string odom_topic = "/rsrio/odom";
+  std::string pose_topic = "/rsrio/pose";
+  std::string status_topic = "/rsrio/status";
+  std::string odom_frame_id = "odom";
+  std::string base_frame_id = "base_link";
+  int domain_id = 0;
+  bool loopback_only = true;
+
+  // Queues between the stages (explicit capacities; every drop is counted).
+  int frame_queue = 4;      // capture -> RIO: raw frames (a frame pool of this size + 1)
+  int imu_queue = 2048;     // IMU -> RIO: ~5 s at 400 Hz
+  int pose_queue = 64;      // RIO -> publisher
+  int event_queue = 256;    // RIO/capture -> log
+
+  // Threads. Priority 0 = SCHED_OTHER; rt_required: refuse to run without SCHED_FIFO.
+  int capture_priority = 80;
+  int rio_priority = 70;
+  std::vector<int> capture_cpus;
+  std::vector<int> rio_cpus;
+  int thread_stack_kib = 1024;
+  bool lock_memory = true;
+  bool rt_required = false;
+
+  // Health.
+  double radar_timeout_s = 1.0;   // no frame this long: radar stale, driver restarted
+  double imu_timeout_s = 0.5;     // no IMU this long: IMU stale
+  double status_period_s = 1.0;
+  double shutdown_timeout_s = 5.0;
+};
+
+DaemonOptions load_daemon_options(OptionsNode& node);
+void print(std::ostream& out, const DaemonOptions& options);
+
+}  // namespace rsrio
