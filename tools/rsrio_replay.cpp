@@ -1,0 +1,343 @@
+// rsrio-replay: runs the odometry (DSP -> ego-velocity -> frontend [-> backend]) over a recording
+// as fast as the machine allows and writes what it estimated.
+//
+//   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba]
+//
+// DIR/frontend.tum   the frontend's radar-frame pose per radar frame (TUM, radar clock, world = the
+//                    frontend's: origin at the first state, yaw 0 there)
+// DIR/estimate.tum   the pose after the backend (= frontend.tum with --backend none)
+// DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present
+// DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99)
+//
+// Frames are processed once the IMU has reached their measurement time (or at the end of the
+// recording), so a recording whose IMU messages lag the radar's is replayed as the daemon would see
+// it with a short buffer. A recording cut short (crash, full disk) is replayed up to the damage and
+// the damage is reported (stderr and stats.json), with exit code 0: what could be read is valid.
+//
+// Exit codes: 0 done; 1 input or output failure; 2 bad command line or configuration.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "rsrio/common/cli.hpp"
+#include "rsrio/common/log.hpp"
+#include "rsrio/common/options.hpp"
+#include "rsrio/driver/adc_layout.hpp"
+#include "rsrio/eval/trajectory.hpp"
+#include "rsrio/recording/recording.hpp"
+#include "rsrio/rio/odometry.hpp"
+
+namespace {
+
+constexpr const char* kProgram = "rsrio-replay";
+
+double seconds(const builtin_interfaces::msg::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
+
+rsrio::eval::StampedPose stamped(double t, const gtsam::Pose3& pose) {
+  return {t, pose.translation(), pose.rotation().toQuaternion()};
+}
+
+const char* status_key(rsrio::rio::EgoVelocityStatus s) {
+  using S = rsrio::rio::EgoVelocityStatus;
+  switch (s) {
+    case S::kOk: return "ok";
+    case S::kTooFewPoints: return "too_few_points";
+    case S::kTooFewInliers: return "too_few_inliers";
+    case S::kDegenerate: return "degenerate";
+    case S::kImplausible: return "implausible";
+  }
+  return "unknown";
+}
+
+struct Percentiles {
+  double p50 = 0, p99 = 0, max = 0, mean = 0;
+};
+Percentiles percentiles(std::vector<double> v) {
+  Percentiles p;
+  if (v.empty()) return p;
+  std::sort(v.begin(), v.end());
+  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))]; };
+  p.p50 = at(0.5);
+  p.p99 = at(0.99);
+  p.max = v.back();
+  double s = 0;
+  for (double x : v) s += x;
+  p.mean = s / static_cast<double>(v.size());
+  return p;
+}
+
+std::string json_string(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) {
+      o += ' ';
+      continue;
+    }
+    o += c;
+  }
+  return o + "\"";
+}
+
+// The one place a backend takes each frame and returns the corrected pose. With `none` it returns
+// the frontend's pose; the bundle-adjustment backend plugs in here.
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual gtsam::Pose3 process(const rsrio::rio::FrameInfo& frame, const rsrio::AdcCube& cube) = 0;
+};
+class NoBackend final : public Backend {
+ public:
+  gtsam::Pose3 process(const rsrio::rio::FrameInfo& frame, const rsrio::AdcCube&) override {
+    return frame.world_T_radar;
+  }
+};
+
+struct PendingFrame {
+  double t_stamp = 0;
+  rsrio_msgs::msg::RadarFrame msg;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string input, out_dir, backend_name = "none";
+  bool quiet = false;
+  rsrio::Cli cli(kProgram,
+                 "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
+                 "frontend.tum, estimate.tum, ground_truth.tum (if the recording has /ground_truth) and\n"
+                 "stats.json into the output directory. Options file sections: dsp, ego_velocity,\n"
+                 "frontend (config/rsrio.yaml lists them with their defaults).");
+  cli.option("--input", "REC.mcap", "the recording (rsrio-sim or a capture)", &input)
+      .option("--out", "DIR", "output directory (made if missing)", &out_dir)
+      .option("--backend", "none|ba", "backend after the frontend (default none)", &backend_name)
+      .flag("--quiet", "no progress line", &quiet);
+  if (auto rc = cli.parse(argc, argv)) return *rc;
+  rsrio::rio::OdometryOptions options;
+  if (auto rc = rsrio::load_program_config(cli, kProgram,
+                                           [&](rsrio::OptionsNode& root) { options = rsrio::rio::load_odometry_options(root); }))
+    return *rc;
+  if (input.empty() || out_dir.empty()) {
+    std::cerr << kProgram << ": error: --input and --out are required\n(see " << kProgram << " --help)\n";
+    return rsrio::kExitUsage;
+  }
+  if (backend_name != "none" && backend_name != "ba") {
+    std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
+    return rsrio::kExitUsage;
+  }
+  if (backend_name == "ba") {
+    std::cerr << kProgram
+              << ": error: --backend ba: backend not available in this build (the bundle-adjustment backend "
+                 "is not wired in yet); use --backend none\n";
+    return rsrio::kExitUsage;
+  }
+  std::unique_ptr<Backend> backend = std::make_unique<NoBackend>();
+  {
+    std::ostringstream s;
+    rsrio::rio::print(s, options);
+    spdlog::info("options (--config {}):\n{}", cli.config_path().empty() ? "none: defaults" : cli.config_path(), s.str());
+  }
+
+  try {
+    std::filesystem::create_directories(out_dir);
+    rsrio::RecordingReader reader(input);
+    rsrio::RecordedMessage m;
+
+    std::optional<rsrio::rio::Odometry> odometry;
+    std::optional<rsrio_msgs::msg::RadarConfig> config_msg;
+    rsrio::AdcCube cube;
+    std::vector<rsrio::rio::ImuSample> imu_before_radar;  // until the first frame makes the odometry
+    std::deque<PendingFrame> pending;
+    double last_imu_t = -1e300;
+    double offset = options.frontend.radar_time_offset_s;
+    rsrio::eval::Trajectory frontend_tum, estimate_tum, ground_truth;
+    std::map<std::string, std::uint64_t> rejected, damaged;
+    std::vector<double> t_dsp, t_ego, t_frontend, t_total;
+    std::uint64_t frames = 0, states = 0, imu_count = 0, undecodable = 0, radar_used = 0;
+    double sum_points = 0, sum_measurements = 0;
+    const auto wall0 = std::chrono::steady_clock::now();
+    auto last_progress = wall0;
+    double first_t = 0, last_t = 0;
+
+    const auto process = [&](PendingFrame& f) {
+      ++frames;
+      if (f.msg.flags() & rsrio_msgs::msg::RadarFrame_Constants::FLAG_DAMAGED) {
+        ++damaged["flagged_damaged"];
+        return;
+      }
+      if (!odometry) {
+        config_msg = f.msg.config();
+        const rsrio::RadarConfig radar = rsrio::from_msg(f.msg.config());
+        odometry.emplace(radar, options);
+        cube = rsrio::AdcCube::for_config(radar);
+        for (const auto& s : imu_before_radar) odometry->add_imu(s);
+        imu_before_radar.clear();
+        first_t = f.t_stamp;
+      } else if (!(f.msg.config() == *config_msg)) {
+        ++damaged["radar_config_changed"];
+        return;
+      }
+      try {
+        rsrio::decode_frame(odometry->radar(), f.msg.adc(), cube);
+      } catch (const std::exception& e) {
+        ++damaged["adc_size"];
+        spdlog::warn("frame {} (stamp {:.6f}): {}", frames - 1, f.t_stamp, e.what());
+        return;
+      }
+      const auto t0 = std::chrono::steady_clock::now();
+      const rsrio::rio::FrameInfo& info = odometry->add_radar_frame(f.t_stamp, cube);
+      t_dsp.push_back(info.dsp_ms);
+      t_ego.push_back(info.ego_ms);
+      t_frontend.push_back(info.frontend_ms);
+      sum_points += info.points;
+      sum_measurements += info.measurements;
+      if (!info.ego.ok()) ++rejected[status_key(info.ego.status)];
+      if (info.state) {
+        ++states;
+        radar_used += info.state->radar_used;
+        frontend_tum.push_back(stamped(info.t, info.world_T_radar));
+        estimate_tum.push_back(stamped(info.t, backend->process(info, cube)));
+      }
+      t_total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      last_t = f.t_stamp;
+    };
+    const auto progress = [&](bool final) {
+      const auto now = std::chrono::steady_clock::now();
+      if (quiet || (!final && now - last_progress < std::chrono::seconds(2))) return;
+      last_progress = now;
+      const double wall = std::chrono::duration<double>(now - wall0).count();
+      const double done = last_t - first_t;
+      std::fprintf(stderr, "%s: %llu frames, %.1f s of recording in %.1f s (%.2fx real time), %zu rejected%s",
+                   kProgram, static_cast<unsigned long long>(frames), done, wall, done / std::max(wall, 1e-9),
+                   static_cast<std::size_t>(frames - radar_used), final ? "\n" : "\r");
+    };
+    // A frame waits until the IMU covers its measurement time (IMU clock = radar clock + offset).
+    const auto ready = [&](const PendingFrame& f) {
+      const double half = odometry ? 0.5 * rsrio::derive(odometry->radar()).frame_active_time_s : 0.0;
+      return last_imu_t >= f.t_stamp - half + offset;
+    };
+
+    while (reader.next(m)) {
+      if (m.topic == rsrio::topics::kImu) {
+        sensor_msgs::msg::Imu imu;
+        if (!rsrio::decode(m, imu)) {
+          ++undecodable;
+          continue;
+        }
+        const auto& a = imu.linear_acceleration();
+        const auto& g = imu.angular_velocity();
+        const rsrio::rio::ImuSample s{seconds(imu.header().stamp()), {a.x(), a.y(), a.z()}, {g.x(), g.y(), g.z()}};
+        ++imu_count;
+        last_imu_t = std::max(last_imu_t, s.t);
+        if (odometry)
+          odometry->add_imu(s);
+        else
+          imu_before_radar.push_back(s);
+        while (!pending.empty() && ready(pending.front())) {
+          process(pending.front());
+          pending.pop_front();
+          progress(false);
+        }
+      } else if (m.topic == rsrio::topics::kRadarRaw) {
+        PendingFrame f;
+        if (!rsrio::decode(m, f.msg)) {
+          ++frames;
+          ++damaged["undecodable_message"];
+          continue;
+        }
+        f.t_stamp = seconds(f.msg.header().stamp());
+        pending.push_back(std::move(f));
+        while (!pending.empty() && ready(pending.front())) {
+          process(pending.front());
+          pending.pop_front();
+          progress(false);
+        }
+      } else if (m.topic == rsrio::topics::kGroundTruth) {
+        nav_msgs::msg::Odometry gt;
+        if (!rsrio::decode(m, gt)) {
+          ++undecodable;
+          continue;
+        }
+        const auto& p = gt.pose().pose();
+        ground_truth.push_back({seconds(gt.header().stamp()),
+                                {p.position().x(), p.position().y(), p.position().z()},
+                                Eigen::Quaterniond(p.orientation().w(), p.orientation().x(), p.orientation().y(),
+                                                   p.orientation().z())
+                                    .normalized()});
+      }
+    }
+    for (auto& f : pending) process(f);
+    pending.clear();
+    progress(true);
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+
+    const auto path = [&](const char* name) { return (std::filesystem::path(out_dir) / name).string(); };
+    rsrio::eval::write_tum(path("frontend.tum"), frontend_tum);
+    rsrio::eval::write_tum(path("estimate.tum"), estimate_tum);
+    if (!ground_truth.empty()) rsrio::eval::write_tum(path("ground_truth.tum"), ground_truth);
+
+    std::string damage;
+    if (reader.damage()) {
+      damage = reader.damage()->message();
+      spdlog::warn("{}: the recording is damaged; replayed up to the damage: {}", input, damage);
+    }
+    std::uint64_t damaged_total = 0;
+    for (const auto& [k, n] : damaged) damaged_total += n;
+    std::uint64_t rejected_total = 0;
+    for (const auto& [k, n] : rejected) rejected_total += n;
+
+    std::ofstream js(path("stats.json"));
+    const auto timing = [&](const char* name, const std::vector<double>& v, bool last) {
+      const auto p = percentiles(v);
+      js << "    " << json_string(name) << ": {\"p50\": " << p.p50 << ", \"p99\": " << p.p99 << ", \"max\": " << p.max
+         << ", \"mean\": " << p.mean << "}" << (last ? "\n" : ",\n");
+    };
+    js << std::setprecision(6) << "{\n"
+       << "  \"input\": " << json_string(input) << ",\n"
+       << "  \"backend\": " << json_string(backend_name) << ",\n"
+       << "  \"frames\": " << frames << ",\n"
+       << "  \"states\": " << states << ",\n"
+       << "  \"frames_with_radar_factor\": " << radar_used << ",\n"
+       << "  \"imu_samples\": " << imu_count << ",\n"
+       << "  \"ground_truth_poses\": " << ground_truth.size() << ",\n"
+       << "  \"undecodable_messages\": " << undecodable << ",\n"
+       << "  \"mean_points_per_frame\": " << (t_dsp.empty() ? 0 : sum_points / t_dsp.size()) << ",\n"
+       << "  \"mean_measurements_per_frame\": " << (t_dsp.empty() ? 0 : sum_measurements / t_dsp.size()) << ",\n"
+       << "  \"rejected_frames\": {\"total\": " << rejected_total;
+    for (const auto& [k, n] : rejected) js << ", " << json_string(k) << ": " << n;
+    js << "},\n  \"damaged_frames\": {\"total\": " << damaged_total;
+    for (const auto& [k, n] : damaged) js << ", " << json_string(k) << ": " << n;
+    js << "},\n  \"recording_damage\": " << (damage.empty() ? "null" : json_string(damage)) << ",\n"
+       << "  \"recording_seconds\": " << (last_t - first_t) << ",\n"
+       << "  \"wall_seconds\": " << wall << ",\n"
+       << "  \"timings_ms\": {\n";
+    timing("dsp", t_dsp, false);
+    timing("ego_velocity", t_ego, false);
+    timing("frontend", t_frontend, false);
+    timing("frame", t_total, true);
+    js << "  }\n}\n";
+    if (!js) throw std::runtime_error(path("stats.json") + ": write failed");
+
+    const auto pd = percentiles(t_dsp), pe = percentiles(t_ego), pf = percentiles(t_frontend);
+    spdlog::info("{} frames ({} with a state, {} rejected by the ego-velocity, {} damaged); p50/p99 ms: dsp {:.2f}/{:.2f}, "
+                 "ego-velocity {:.2f}/{:.2f}, frontend {:.2f}/{:.2f}; wrote {}",
+                 frames, states, rejected_total, damaged_total, pd.p50, pd.p99, pe.p50, pe.p99, pf.p50, pf.p99, out_dir);
+  } catch (const rsrio::ConfigError& e) {
+    std::cerr << kProgram << ": error: " << e.what() << "\n";
+    return rsrio::kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << kProgram << ": error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
