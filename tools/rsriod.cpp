@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   rsrio::DaemonOptions daemon;
   rsrio::RadarConfig radar = rsrio::radar_preset("xwr1843");
   bool radar_given = false;
-  rsrio::OdometryStageOptions stage;
+  rsrio::rio::OdometryOptions stage;
   if (auto rc = rsrio::load_program_config(cli, "rsriod", [&](rsrio::OptionsNode& root) {
         if (root.has("daemon")) {
           rsrio::OptionsNode n = root.child("daemon");
@@ -58,10 +58,7 @@ int main(int argc, char** argv) {
           radar = rsrio::load_radar_config(n);
           radar_given = true;
         }
-        if (root.has("dsp")) {
-          rsrio::OptionsNode n = root.child("dsp");
-          stage.dsp = rsrio::load_dsp_options(n);
-        }
+        stage = rsrio::rio::load_odometry_options(root);  // dsp:, ego_velocity:, frontend:
       }))
     return *rc;
   if (!source.empty()) daemon.radar_source = source;
@@ -103,7 +100,7 @@ int main(int argc, char** argv) {
     std::cout << "# rsriod " << rsrio::version_string() << "\n";
     rsrio::print(std::cout, daemon);
     rsrio::print(std::cout, radar);
-    rsrio::print(std::cout, stage.dsp);
+    rsrio::rio::print(std::cout, stage);
     std::cout.flush();
 
     // DDS before any real-time thread: its own threads must not inherit SCHED_FIFO.

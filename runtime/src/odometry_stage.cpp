@@ -4,30 +4,24 @@
 
 namespace rsrio {
 
-OdometryStage::OdometryStage(const RadarConfig& radar, const OdometryStageOptions& options)
-    : dsp_(radar, options.dsp), ego_(options.ego_velocity), frontend_(options.frontend) {
-  doppler_.reserve(4096);
-}
+OdometryStage::OdometryStage(const RadarConfig& radar, const rio::OdometryOptions& options)
+    : odometry_(radar, options) {}
 
 void OdometryStage::add_imu(const rio::ImuSample& sample) {
-  frontend_.add_imu(sample);
+  odometry_.add_imu(sample);
   last_imu_ = sample;
 }
 
 bool OdometryStage::add_frame(double t, const AdcCube& cube, PoseOutput& out) {
   ++frames_;
-  const DspResult& r = dsp_.process(cube);
-  doppler_.clear();
-  for (const DspPoint& p : r.points) {
-    if (doppler_.size() == doppler_.capacity()) break;
-    const double n = std::sqrt(double(p.x) * p.x + double(p.y) * p.y + double(p.z) * p.z);
-    if (!(n > 1e-6)) continue;
-    doppler_.push_back({Eigen::Vector3d(p.x / n, p.y / n, p.z / n), p.doppler_mps});
-  }
-  const rio::EgoVelocity ego = ego_.estimate(doppler_, frames_);
+  const rio::FrameInfo& info = odometry_.add_radar_frame(t, cube);
+  const rio::EgoVelocity& ego = info.ego;
   if (!ego.ok()) ++ego_rejected_;
-  const auto state = frontend_.add_radar(t, ego);
+  const auto& state = info.state;
   if (!state) return false;
+  // The state belongs to the middle of the frame (its Doppler is averaged over the chirps), not to
+  // the stamp of its last chirp: publish it with the time it is true at.
+  out.stamp_ns -= std::llround((info.t_stamp - info.t) * 1e9);
 
   const gtsam::Rot3 R = state->world_T_body.rotation();
   const gtsam::Point3 p = state->world_T_body.translation();

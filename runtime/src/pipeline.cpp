@@ -93,7 +93,7 @@ double percentile(std::vector<double> v, double q) {
 struct Pipeline::Impl : fdds::DataReaderListener {
   DaemonOptions options;
   RadarConfig radar;
-  OdometryStageOptions stage_options;
+  rio::OdometryOptions stage_options;
   DdsParticipant& dds;
   PublisherOptions publisher_options;
   std::unique_ptr<OdometryPublisher> publisher;
@@ -130,7 +130,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   RtThread capture_thread, rio_thread, publisher_thread;
   std::vector<double> latencies_ms;  // publisher thread only
 
-  Impl(const DaemonOptions& o, const RadarConfig& r, const OdometryStageOptions& s, DdsParticipant& d)
+  Impl(const DaemonOptions& o, const RadarConfig& r, const rio::OdometryOptions& s, DdsParticipant& d)
       : options(o), radar(r), stage_options(s), dds(d),
         frame_bytes(raw_frame_bytes(r)),
         frames(static_cast<std::size_t>(o.frame_queue)),
@@ -458,7 +458,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   }
 };
 
-Pipeline::Pipeline(const DaemonOptions& options, const RadarConfig& radar, const OdometryStageOptions& stage,
+Pipeline::Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
                    DdsParticipant& dds)
     : impl_(std::make_unique<Impl>(options, radar, stage, dds)) {
   impl_->publisher = std::make_unique<OdometryPublisher>(dds, impl_->publisher_options);

@@ -54,7 +54,7 @@ class Pipeline {
   /// `radar` is the configuration of the live radar (for a recording it is taken from the
   /// recording's first frame and must match). Throws ConfigError / std::runtime_error for a
   /// source that cannot be opened.
-  Pipeline(const DaemonOptions& options, const RadarConfig& radar, const OdometryStageOptions& stage,
+  Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
            DdsParticipant& dds);
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
