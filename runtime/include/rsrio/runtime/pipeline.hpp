@@ -64,8 +64,9 @@ class Pipeline {
   /// and SCHED_FIFO was refused.
   void start();
   void request_stop();
-  /// Joins everything; false when a thread did not finish within the shutdown timeout (it is then
-  /// detached... never: we wait, but report the overrun).
+  /// Joins every thread (it always waits for them: a detached thread would outlive the objects it
+  /// uses); false when that took longer than DaemonOptions::shutdown_timeout_s, so the caller can
+  /// report the overrun.
   bool stop();
 
   PipelineSnapshot snapshot() const;
