@@ -1,5 +1,6 @@
 #include "rsrio/driver/dca1000_driver.hpp"
 
+#include <algorithm>
 #include <array>
 #include <ctime>
 #include <thread>
@@ -45,7 +46,10 @@ Dca1000Driver::Dca1000Driver(const Dca1000Options& options, std::size_t frame_by
       config_(options.host_config),
       data_(options.host_data, options.receive_buffer_bytes),
       batch_(options.batch_datagrams, dca1000::kMaxDatagram),
-      assembler_(frame_bytes, options.pool_frames) {}
+      assembler_(frame_bytes,
+                 std::max(options.pool_frames,
+                          FrameAssembler::pool_frames_needed(frame_bytes, kDefaultReorderWindowBytes,
+                                                             options.batch_datagrams * dca1000::kMaxDataPayload))) {}
 
 bool Dca1000Driver::handle_config_datagram(std::span<const std::uint8_t> d, const Endpoint& from,
                                            Command waiting_for, std::uint16_t& status) {
@@ -161,6 +165,7 @@ int Dca1000Driver::poll(std::chrono::milliseconds timeout) {
   const int n = batch_.receive(data_, timeout);
   const std::int64_t now = monotonic_ns();
   if (n < 0) ++counters_.receive_errors;
+  counters_.kernel_drops = batch_.kernel_drops();
   int handled = 0;
   for (int i = 0; i < n; ++i) {
     if (batch_.source(i).ip != options_.board.ip) {

@@ -38,6 +38,13 @@ FrameAssembler::FrameAssembler(std::size_t frame_bytes, std::size_t pool_frames,
   }
 }
 
+std::size_t FrameAssembler::pool_frames_needed(std::size_t frame_bytes, std::size_t reorder_window_bytes,
+                                              std::size_t batch_bytes, std::size_t held_by_consumer) {
+  if (frame_bytes == 0) throw std::invalid_argument("frame size must be > 0");
+  const auto frames_in = [&](std::size_t bytes) { return (bytes + frame_bytes - 1) / frame_bytes + 1; };
+  return std::max<std::size_t>(3, frames_in(reorder_window_bytes) + frames_in(batch_bytes) + held_by_consumer);
+}
+
 void FrameAssembler::track_sequence(std::uint32_t seq, bool& duplicate, bool& out_of_order) {
   duplicate = out_of_order = false;
   auto bit = [&](std::uint32_t s) -> std::uint64_t& { return seq_seen_[(s % kSeqWindow) / 64]; };

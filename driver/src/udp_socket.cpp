@@ -1,6 +1,8 @@
 #include "rsrio/driver/udp_socket.hpp"
 
+#include <algorithm>
 #include <cerrno>
+#include <cstring>
 #include <stdexcept>
 #include <system_error>
 
@@ -66,6 +68,8 @@ UdpSocket::UdpSocket(const Endpoint& local, int receive_buffer_bytes) {
   if (fd_ < 0) throw std::system_error(errno, std::generic_category(), "socket()");
   const int one = 1;
   ::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  // Each datagram then carries the count of datagrams the kernel dropped for a full buffer.
+  ::setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one);
   if (receive_buffer_bytes > 0) {
     // SO_RCVBUFFORCE passes net.core.rmem_max when we may (CAP_NET_ADMIN); else the capped ask.
     if (::setsockopt(fd_, SOL_SOCKET, SO_RCVBUFFORCE, &receive_buffer_bytes, sizeof receive_buffer_bytes) != 0)
@@ -125,9 +129,13 @@ int UdpSocket::receive_buffer_bytes() const {
   return v;
 }
 
+namespace {
+constexpr std::size_t kControlBytes = CMSG_SPACE(sizeof(std::uint32_t));
+}  // namespace
+
 DatagramBatch::DatagramBatch(std::size_t capacity, std::size_t max_datagram)
     : max_datagram_(max_datagram), storage_(capacity * max_datagram), headers_(capacity), iovecs_(capacity),
-      addresses_(capacity) {
+      addresses_(capacity), control_(capacity * kControlBytes) {
   for (std::size_t i = 0; i < capacity; ++i) {
     iovecs_[i] = {storage_.data() + i * max_datagram, max_datagram};
     headers_[i].msg_hdr = {};
@@ -140,13 +148,27 @@ DatagramBatch::DatagramBatch(std::size_t capacity, std::size_t max_datagram)
 
 int DatagramBatch::receive(const UdpSocket& socket, std::chrono::milliseconds timeout) {
   if (!wait_readable(socket.fd(), timeout)) return 0;
-  for (auto& h : headers_) {
+  for (std::size_t i = 0; i < headers_.size(); ++i) {
+    auto& h = headers_[i];
     h.msg_hdr.msg_namelen = sizeof(sockaddr_in);
+    h.msg_hdr.msg_control = control_.data() + i * kControlBytes;
+    h.msg_hdr.msg_controllen = kControlBytes;
     h.msg_hdr.msg_flags = 0;
     h.msg_len = 0;
   }
   const int n = ::recvmmsg(socket.fd(), headers_.data(), static_cast<unsigned>(headers_.size()), MSG_DONTWAIT, nullptr);
   if (n < 0) return (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) ? 0 : -1;
+  // The kernel attaches the drop count only once it is non-zero; it only grows.
+  for (int i = 0; i < n; ++i) {
+    msghdr& m = headers_[static_cast<std::size_t>(i)].msg_hdr;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&m); c; c = CMSG_NXTHDR(&m, c)) {
+      if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL) {
+        std::uint32_t drops = 0;
+        std::memcpy(&drops, CMSG_DATA(c), sizeof drops);
+        kernel_drops_ = std::max(kernel_drops_, drops);
+      }
+    }
+  }
   return n;
 }
 

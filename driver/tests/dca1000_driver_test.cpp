@@ -63,9 +63,11 @@ struct Rig {
       }
     });
   }
-  ~Rig() {
+  ~Rig() { stop_board(); }
+  // The emulator's counters are read only after its thread has ended (joined: no data race).
+  void stop_board() {
     stop = true;
-    board.join();
+    if (board.joinable()) board.join();
   }
 
   // Polls until the stream has been quiet for a while, collecting frames by number.
@@ -138,20 +140,35 @@ TEST_CASE("10 % loss, 5 % reordering, 2 % duplicates: damaged flagged, good exac
       CHECK(f.bytes == rig.frames[n]);  // a frame passed as good is exactly what was sent
     }
   }
+  rig.stop_board();
   const auto& e = rig.emulator.counters();
   const auto& c = rig.driver.assembler_counters();
   CHECK(e.packets_lost > 0);
   CHECK(damaged > 0);
   CHECK(damaged < got.size());
   CHECK(c.damaged_frames == damaged);
-  CHECK(c.duplicate_packets == e.packets_duplicated);
+  // The pool is sized for the reorder window and the batch: no good packet is ever dropped.
+  CHECK(c.pool_exhausted == 0);
+  CHECK(c.late_packets == 0);
+  CHECK(got.size() + c.frames_skipped == 60);
+  // The counters below compare what the driver saw with what the emulator injected. A datagram
+  // the kernel dropped because this receiver fell behind (a loaded machine, a sanitizer build) is
+  // a gap too, but not the emulator's: the socket reports those (SO_RXQ_OVFL) and they are added.
+  const std::uint64_t kernel = rig.driver.counters().kernel_drops;
+  INFO("kernel drops: " << kernel);
   // Loss is seen through sequence gaps; a loss in the very last packets has no later packet to
   // reveal it, so allow for the tail.
-  CHECK(c.lost_packets <= e.packets_lost);
+  CHECK(c.lost_packets <= e.packets_lost + kernel);
   CHECK(c.lost_packets + 3 >= e.packets_lost);
-  CHECK(c.out_of_order_packets <= e.packets_reordered);
-  CHECK(c.out_of_order_packets + 2 >= e.packets_reordered);
-  CHECK(got.size() + c.frames_skipped == 60);
+  if (kernel == 0) {
+    CHECK(c.duplicate_packets == e.packets_duplicated);
+    CHECK(c.out_of_order_packets <= e.packets_reordered);
+    CHECK(c.out_of_order_packets + 2 >= e.packets_reordered);
+  } else {
+    // A dropped datagram may have been a duplicate or a held-back one.
+    CHECK(c.duplicate_packets <= e.packets_duplicated);
+    CHECK(c.out_of_order_packets <= e.packets_reordered);
+  }
 }
 
 TEST_CASE("a board that is not there, or refuses, gives a clear error", "[dca1000_driver][concurrency]") {

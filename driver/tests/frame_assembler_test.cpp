@@ -215,3 +215,43 @@ TEST_CASE("a stall closes the open frame as damaged", "[frame_assembler]") {
   CHECK(f->lost_bytes == 1000);
   CHECK(f->completed_ns == 200'000'000);
 }
+
+TEST_CASE("a pool of pool_frames_needed() never runs out with small frames and 10 % loss", "[frame_assembler]") {
+  // 8000-byte frames are 5.5 packets: with 10 % loss about half stay open until the stream is a
+  // reorder window (64 packets, ~12 frames) past them. A consumer that drains after every batch
+  // of 64 datagrams then needs ~27 buffers; the old fixed 6 dropped good packets (pool_exhausted).
+  constexpr std::size_t kFrame = 8000, kFrames = 200, kBatch = 64;
+  std::mt19937_64 rng(3);
+  std::vector<std::uint8_t> stream(kFrame * kFrames);
+  for (auto& b : stream) b = static_cast<std::uint8_t>(rng());
+  const auto packets = make_stream(stream, 1456);
+  const std::size_t pool =
+      FrameAssembler::pool_frames_needed(kFrame, rsrio::kDefaultReorderWindowBytes, kBatch * 1456);
+  CHECK(pool > 6);
+  FrameAssembler a(kFrame, pool);
+  std::bernoulli_distribution lose(0.10);
+  std::set<std::uint64_t> frames_with_loss;
+  std::map<std::uint64_t, AssembledFrame> got;
+  std::size_t in_batch = 0;
+  for (const auto& p : packets) {
+    if (lose(rng)) {
+      for (std::uint64_t b = p.byte_count; b < p.byte_count + p.datagram.size() - 10; b += 1)
+        frames_with_loss.insert(b / kFrame);
+      continue;
+    }
+    a.on_datagram(p.datagram, 0);
+    if (++in_batch == kBatch) {
+      in_batch = 0;
+      for (auto& f : drain(a)) got[f.frame_number] = std::move(f);
+    }
+  }
+  a.flush_all(0);
+  for (auto& f : drain(a)) got[f.frame_number] = std::move(f);
+  CHECK(a.counters().pool_exhausted == 0);
+  CHECK(got.size() == kFrames);
+  for (const auto& [n, f] : got) {
+    INFO("frame " << n);
+    CHECK(((f.flags & rsrio::kFrameDamaged) != 0) == (frames_with_loss.count(n) == 1));
+  }
+  CHECK(a.counters().damaged_frames == frames_with_loss.size());
+}

@@ -28,7 +28,7 @@ struct Dca1000Options {
   std::chrono::milliseconds command_timeout{1000};
   int command_retries = 3;
   int receive_buffer_bytes = 16 << 20;    // several frames; raise net.core.rmem_max to get it
-  std::size_t pool_frames = 6;
+  std::size_t pool_frames = 6;            // raised to what the reorder window and batch need (small frames)
   std::size_t batch_datagrams = 64;
   std::chrono::milliseconds stale_frame{250};  // an incomplete frame with no packets this long is closed
 };
@@ -48,6 +48,7 @@ struct DriverCounters {
   std::uint64_t foreign_datagrams = 0;  // from an address that is not the board: ignored
   std::uint64_t truncated_datagrams = 0;
   std::uint64_t receive_errors = 0;
+  std::uint64_t kernel_drops = 0;       // data datagrams the kernel dropped: this host fell behind
 };
 
 /// A command the board did not answer, or refused. The message says what to check.

@@ -45,11 +45,22 @@ struct AssembledFrame {
 
 inline constexpr std::uint32_t kFrameDamaged = 1;  // == rsrio_msgs::msg::RadarFrame_Constants::FLAG_DAMAGED
 
+inline constexpr std::size_t kDefaultReorderWindowBytes = 64 * 1456;  // 64 full DCA1000 packets
+
 class FrameAssembler {
  public:
   /// `pool_frames` buffers of `frame_bytes` each (at least 3: two open frames and one handed out).
   FrameAssembler(std::size_t frame_bytes, std::size_t pool_frames = 6,
-                 std::size_t reorder_window_bytes = 64 * 1456);
+                 std::size_t reorder_window_bytes = kDefaultReorderWindowBytes);
+
+  /// The smallest pool that never runs out while the consumer takes every ready frame after each
+  /// batch of `batch_bytes` and holds at most `held_by_consumer` at a time. Frames stay open
+  /// until the stream is `reorder_window_bytes` past their end, so the frames from the oldest open
+  /// one to the newest span ceil(window / frame) + 1; one batch can finish ceil(batch / frame) + 1
+  /// more before the consumer runs. With small frames this is far above 3: a pool below it drops
+  /// whole frames' worth of good packets (pool_exhausted) whenever loss keeps a frame open.
+  static std::size_t pool_frames_needed(std::size_t frame_bytes, std::size_t reorder_window_bytes,
+                                        std::size_t batch_bytes, std::size_t held_by_consumer = 1);
 
   /// Places one data datagram (header included). `now_ns`: CLOCK_MONOTONIC of its arrival.
   void on_datagram(std::span<const std::uint8_t> datagram, std::int64_t now_ns);

@@ -64,6 +64,10 @@ class DatagramBatch {
   Endpoint source(int i) const;
   /// Datagrams cut short because they exceeded max_datagram.
   bool truncated(int i) const;
+  /// Datagrams the kernel dropped on this socket since it was opened because its receive buffer
+  /// was full (SO_RXQ_OVFL, as of the last datagram received): the receiver fell behind. These are
+  /// not the sender's losses, though the frame assembler sees both as sequence gaps.
+  std::uint32_t kernel_drops() const { return kernel_drops_; }
 
  private:
   std::size_t max_datagram_;
@@ -71,6 +75,8 @@ class DatagramBatch {
   std::vector<struct mmsghdr> headers_;
   std::vector<struct iovec> iovecs_;
   std::vector<sockaddr_in> addresses_;
+  std::vector<std::uint8_t> control_;  // one SO_RXQ_OVFL control message per datagram
+  std::uint32_t kernel_drops_ = 0;
 };
 
 }  // namespace rsrio
