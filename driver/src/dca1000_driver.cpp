@@ -146,6 +146,11 @@ void Dca1000Driver::stop() {
     } catch (const Dca1000Error&) {
       // counted in command(); the board may be gone (unplugged): stopping still succeeds here
     }
+    // The board sent everything before it answered STOP_RECORD: take what is still queued on the
+    // data socket before closing the open frames, or the last frame would be cut for nothing.
+    // (Bounded: a flood from elsewhere cannot keep stop() here.)
+    for (int batches = 0; batches < 4096 && poll(std::chrono::milliseconds(0)) > 0; ++batches) {
+    }
   }
   assembler_.flush_all(monotonic_ns());
   state_ = DriverState::kStopped;
