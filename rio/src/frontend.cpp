@@ -108,29 +108,38 @@ void RioFrontend::add_radar_factor(std::uint64_t k, double t, const EgoVelocity&
 }
 
 void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, const EgoVelocity& ego) {
-  if (!options_.zero_rate_update || !options_.use_radar || !ego.ok() ||
-      ego.velocity.norm() >= options_.still_speed_mps)
-    return;
+  if (!options_.zero_rate_update || !options_.use_radar) return;
+  StillInterval cur;
+  cur.k = k;
   gtsam::Vector3 sum = gtsam::Vector3::Zero();
-  double dt = 0;
   for (std::size_t i = 0; i < imu_.size(); ++i) {
     const double a = std::max(imu_[i].t, t0);
     const double b = std::min(i + 1 < imu_.size() ? imu_[i + 1].t : t1, t1);
     if (b > a) {
       sum += imu_[i].gyro * (b - a);
-      dt += b - a;
+      cur.dt += b - a;
     }
   }
-  if (dt < 1e-3) return;
-  const gtsam::Vector3 mean = sum / dt;
-  if (mean.norm() >= options_.still_gyro_rate) return;
+  if (cur.dt > 1e-3) cur.mean = sum / cur.dt;
+  // Still: the radar sees no motion and the gyro shows nothing beyond the bias we believe in.
+  const gtsam::Vector3 bias = values_.at<gtsam::imuBias::ConstantBias>(B(k)).gyroscope();
+  cur.candidate = cur.dt > 1e-3 && ego.ok() && ego.velocity.norm() < options_.still_speed_mps &&
+                  (cur.mean - bias).norm() < options_.still_gyro_rate;
+  still_.push_back(cur);
+  if (still_.size() > 3) still_.pop_front();
+  // An interval counts only between two still neighbours: the first and last tenths of a second of
+  // a turn on the spot turn slower than the gate, and must not be taken for standing.
+  if (still_.size() < 3 || !still_[0].candidate || !still_[1].candidate || !still_[2].candidate) return;
+  const StillInterval& mid = still_[1];
+  if (!values_.exists(B(mid.k))) return;
   // gyro = bias + rate + noise with rate ~ 0: the mean over dt measures the bias.
-  const double sg = std::sqrt(options_.gyro_noise_density * options_.gyro_noise_density / dt +
+  const double sg = std::sqrt(options_.gyro_noise_density * options_.gyro_noise_density / mid.dt +
                               options_.still_rate_sigma * options_.still_rate_sigma);
   gtsam::Vector6 sigmas;
   sigmas << gtsam::Vector3::Constant(1e3), gtsam::Vector3::Constant(sg);  // accel part: unconstrained
-  const auto bias = values_.at<gtsam::imuBias::ConstantBias>(B(k));
-  graph_.addPrior(B(k), gtsam::imuBias::ConstantBias(bias.accelerometer(), mean), gtsam::noiseModel::Diagonal::Sigmas(sigmas));
+  const auto b_mid = values_.at<gtsam::imuBias::ConstantBias>(B(mid.k));
+  graph_.addPrior(B(mid.k), gtsam::imuBias::ConstantBias(b_mid.accelerometer(), mid.mean),
+                  gtsam::noiseModel::Diagonal::Sigmas(sigmas));
   ++zero_rate_updates_;
 }
 

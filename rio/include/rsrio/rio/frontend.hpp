@@ -35,10 +35,11 @@ struct FrontendOptions {
   // Zero angular-rate update: yaw is not observable from ego-velocities (the lever arm is a few
   // centimetres), so an uncorrected gyro z bias turns straight into heading drift. Whenever the
   // radar says the rig stands (|v| below still_speed_mps) and the gyro agrees (mean rate below
-  // still_gyro_rate), the mean gyro rate over the interval is a measurement of the gyro bias.
+  // still_gyro_rate from the bias believed so far), the mean gyro rate over the interval is a
+  // measurement of the gyro bias (taken for an interval whose neighbours are still too).
   bool zero_rate_update = true;
   double still_speed_mps = 0.05;
-  double still_gyro_rate = 0.03;             // rad/s, above any plausible bias
+  double still_gyro_rate = 0.01;             // rad/s, |mean gyro - believed bias| (3 sigma of a MEMS bias)
   double still_rate_sigma = 5e-4;            // rad/s, residual true rotation while standing
   // Window and priors.
   int window_states = 20;
@@ -100,6 +101,13 @@ class RioFrontend {
   std::uint64_t imu_ignored_ = 0;
   std::uint64_t frames_without_radar_ = 0;
   std::uint64_t zero_rate_updates_ = 0;
+  struct StillInterval {
+    std::uint64_t k = 0;  // the state that ends the interval
+    gtsam::Vector3 mean = gtsam::Vector3::Zero();
+    double dt = 0;
+    bool candidate = false;
+  };
+  std::deque<StillInterval> still_;  // the last three intervals
 };
 
 }  // namespace rsrio::rio
