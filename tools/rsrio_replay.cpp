@@ -177,7 +177,12 @@ int main(int argc, char** argv) {
       }
       if (!odometry) {
         config_msg = f.msg.config();
-        const rsrio::RadarConfig radar = rsrio::from_msg(f.msg.config());
+        rsrio::RadarConfig radar;
+        try {
+          radar = rsrio::from_msg(f.msg.config());
+        } catch (const rsrio::ConfigError& e) {  // the recording's fault, not the command line's
+          throw std::runtime_error(input + ": the radar configuration of the first frame is unusable: " + e.what());
+        }
         odometry.emplace(radar, options);
         cube = rsrio::AdcCube::for_config(radar);
         for (const auto& s : imu_before_radar) odometry->add_imu(s);

@@ -107,6 +107,42 @@ void RioFrontend::add_radar_factor(std::uint64_t k, double t, const EgoVelocity&
   graph_.emplace_shared<RadarVelocityFactor>(X(k), V(k), B(k), ego.velocity, gyro_at(t), options_.body_T_radar, robust);
 }
 
+void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, const EgoVelocity& ego) {
+  if (!options_.zero_rate_update || !options_.use_radar) return;
+  StillInterval cur;
+  cur.k = k;
+  gtsam::Vector3 sum = gtsam::Vector3::Zero();
+  for (std::size_t i = 0; i < imu_.size(); ++i) {
+    const double a = std::max(imu_[i].t, t0);
+    const double b = std::min(i + 1 < imu_.size() ? imu_[i + 1].t : t1, t1);
+    if (b > a) {
+      sum += imu_[i].gyro * (b - a);
+      cur.dt += b - a;
+    }
+  }
+  if (cur.dt > 1e-3) cur.mean = sum / cur.dt;
+  // Still: the radar sees no motion and the gyro shows nothing beyond the bias we believe in.
+  const gtsam::Vector3 bias = values_.at<gtsam::imuBias::ConstantBias>(B(k)).gyroscope();
+  cur.candidate = cur.dt > 1e-3 && ego.ok() && ego.velocity.norm() < options_.still_speed_mps &&
+                  (cur.mean - bias).norm() < options_.still_gyro_rate;
+  still_.push_back(cur);
+  if (still_.size() > 3) still_.pop_front();
+  // An interval counts only between two still neighbours: the first and last tenths of a second of
+  // a turn on the spot turn slower than the gate, and must not be taken for standing.
+  if (still_.size() < 3 || !still_[0].candidate || !still_[1].candidate || !still_[2].candidate) return;
+  const StillInterval& mid = still_[1];
+  if (!values_.exists(B(mid.k))) return;
+  // gyro = bias + rate + noise with rate ~ 0: the mean over dt measures the bias.
+  const double sg = std::sqrt(options_.gyro_noise_density * options_.gyro_noise_density / mid.dt +
+                              options_.still_rate_sigma * options_.still_rate_sigma);
+  gtsam::Vector6 sigmas;
+  sigmas << gtsam::Vector3::Constant(1e3), gtsam::Vector3::Constant(sg);  // accel part: unconstrained
+  const auto b_mid = values_.at<gtsam::imuBias::ConstantBias>(B(mid.k));
+  graph_.addPrior(B(mid.k), gtsam::imuBias::ConstantBias(b_mid.accelerometer(), mid.mean),
+                  gtsam::noiseModel::Diagonal::Sigmas(sigmas));
+  ++zero_rate_updates_;
+}
+
 void RioFrontend::marginalise_oldest() {
   const std::uint64_t j = window_.front().first;
   const gtsam::KeyVector old{X(j), V(j), B(j)};
@@ -162,6 +198,7 @@ std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVel
   graph_.emplace_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim);
   window_.emplace_back(k, t);
   add_radar_factor(k, t, ego);
+  add_zero_rate_factor(k, t_prev, t, ego);
 
   gtsam::LevenbergMarquardtParams lm;
   lm.setMaxIterations(options_.lm_max_iterations);

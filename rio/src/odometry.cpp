@@ -76,6 +76,10 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   f.read("radar_velocity_sigma_scale", fo.radar_velocity_sigma_scale, {1e-3, 1e3});
   f.read("huber_k", fo.huber_k, {0.01, 1e6});
   f.read("use_radar", fo.use_radar);
+  f.read("zero_rate_update", fo.zero_rate_update);
+  f.read("still_speed_mps", fo.still_speed_mps, {0.0, 10.0});
+  f.read("still_gyro_rate", fo.still_gyro_rate, {0.0, 10.0});
+  f.read("still_rate_sigma", fo.still_rate_sigma, {1e-9, 10.0});
   f.read("window_states", fo.window_states, {2, 1000});
   f.read("lm_max_iterations", fo.lm_max_iterations, {1, 1000});
   f.read("prior_rotation_sigma", fo.prior_rotation_sigma, {1e-9, 10.0});
@@ -126,6 +130,10 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  radar_velocity_sigma_scale: " << f.radar_velocity_sigma_scale << "\n"
       << "  huber_k: " << f.huber_k << "\n"
       << "  use_radar: " << b(f.use_radar) << "\n"
+      << "  zero_rate_update: " << b(f.zero_rate_update) << "\n"
+      << "  still_speed_mps: " << f.still_speed_mps << "\n"
+      << "  still_gyro_rate: " << f.still_gyro_rate << "\n"
+      << "  still_rate_sigma: " << f.still_rate_sigma << "\n"
       << "  window_states: " << f.window_states << "\n"
       << "  lm_max_iterations: " << f.lm_max_iterations << "\n"
       << "  prior_rotation_sigma: " << f.prior_rotation_sigma << "\n"

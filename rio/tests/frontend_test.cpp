@@ -3,7 +3,10 @@
 // (The accuracy figures of the project come from rsrio's own simulator; this is the unit check.)
 #include "rsrio/rio/frontend.hpp"
 
+#include <cmath>
+#include <optional>
 #include <random>
+#include <utility>
 
 #include <catch2/catch_test_macros.hpp>
 #include <gtsam/navigation/Scenario.h>
@@ -77,4 +80,45 @@ TEST_CASE("frontend tracks a circular walk; without the radar factor the error g
                          << a.path_length_m << " m");
   CHECK(a.translation_m.rmse < 0.02 * a.path_length_m);
   CHECK(b.translation_m.rmse > 10 * a.translation_m.rmse);
+}
+
+TEST_CASE("standing still, the zero angular-rate update finds the gyro bias; without it yaw drifts", "[frontend]") {
+  // The rig stands for 3 s, then turns on the spot at 0.5 rad/s for 1 s (the gate must let that
+  // through untouched), then stands again. Yaw is unobservable from ego-velocities, so the yaw
+  // error at the end is the gyro z bias integrated, unless the bias was found while standing.
+  const gtsam::Vector3 gyro_bias(0.002, -0.001, 0.004);
+  const auto run_still = [&](bool zero_rate_update) {
+    FrontendOptions o;
+    o.zero_rate_update = zero_rate_update;
+    RioFrontend frontend(o);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> n(0, 1);
+    const double sg = o.gyro_noise_density * std::sqrt(200.0), sa = o.accel_noise_density * std::sqrt(200.0);
+    double yaw_true = 0;
+    std::optional<FrontendState> last;
+    for (int i = 0; i <= 200 * 8; ++i) {
+      const double t = i / 200.0;
+      const double rate = (t >= 3.0 && t < 4.0) ? 0.5 : 0.0;
+      if (i > 0) yaw_true += rate / 200.0;
+      frontend.add_imu({t, gtsam::Vector3(0, 0, o.gravity) + sa * gtsam::Vector3(n(rng), n(rng), n(rng)),
+                        gtsam::Vector3(0, 0, rate) + gyro_bias + sg * gtsam::Vector3(n(rng), n(rng), n(rng))});
+      if (i % 20 == 10) {
+        EgoVelocity ego;
+        ego.status = EgoVelocityStatus::kOk;
+        ego.velocity = 0.01 * gtsam::Vector3(n(rng), n(rng), n(rng));
+        ego.covariance = gtsam::I_3x3 * 1e-4;
+        last = frontend.add_radar(t, ego);
+      }
+    }
+    REQUIRE(last);
+    const double yaw = last->world_T_body.rotation().yaw();
+    return std::pair{std::abs(std::remainder(yaw - yaw_true, 2 * 3.14159265358979323846)), last->bias.gyroscope().z()};
+  };
+  const auto [yaw_error_on, bias_on] = run_still(true);
+  const auto [yaw_error_off, bias_off] = run_still(false);
+  INFO("yaw error " << yaw_error_on << " rad with the update (bias z " << bias_on << "), " << yaw_error_off
+                    << " rad without (bias z " << bias_off << "); true bias z " << gyro_bias.z());
+  CHECK(std::abs(bias_on - gyro_bias.z()) < 5e-4);
+  CHECK(yaw_error_on < 0.004);
+  CHECK(yaw_error_off > 0.02);  // 8 s x 4e-3 rad/s, less what the prior lets it learn
 }

@@ -32,6 +32,15 @@ struct FrontendOptions {
   double radar_velocity_sigma_scale = 1.0;   // inflate the ego-velocity covariance
   double huber_k = 1.345;                    // robust loss on the whitened radar error
   bool use_radar = true;                     // false: IMU only (the ablation)
+  // Zero angular-rate update: yaw is not observable from ego-velocities (the lever arm is a few
+  // centimetres), so an uncorrected gyro z bias turns straight into heading drift. Whenever the
+  // radar says the rig stands (|v| below still_speed_mps) and the gyro agrees (mean rate below
+  // still_gyro_rate from the bias believed so far), the mean gyro rate over the interval is a
+  // measurement of the gyro bias (taken for an interval whose neighbours are still too).
+  bool zero_rate_update = true;
+  double still_speed_mps = 0.05;
+  double still_gyro_rate = 0.01;             // rad/s, |mean gyro - believed bias| (3 sigma of a MEMS bias)
+  double still_rate_sigma = 5e-4;            // rad/s, residual true rotation while standing
   // Window and priors.
   int window_states = 20;
   int lm_max_iterations = 15;
@@ -71,12 +80,14 @@ class RioFrontend {
   int states() const { return static_cast<int>(window_.size()); }
   std::uint64_t imu_ignored() const { return imu_ignored_; }
   std::uint64_t frames_without_radar() const { return frames_without_radar_; }
+  std::uint64_t zero_rate_updates() const { return zero_rate_updates_; }
 
  private:
   bool initialise(double t, const EgoVelocity& ego);
   gtsam::Vector3 gyro_at(double t) const;
   void preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const;
   void add_radar_factor(std::uint64_t k, double t, const EgoVelocity& ego);
+  void add_zero_rate_factor(std::uint64_t k, double t0, double t1, const EgoVelocity& ego);
   void marginalise_oldest();
   FrontendState state(std::uint64_t k, double t_radar, bool radar_used);
 
@@ -89,6 +100,14 @@ class RioFrontend {
   std::uint64_t next_ = 0;
   std::uint64_t imu_ignored_ = 0;
   std::uint64_t frames_without_radar_ = 0;
+  std::uint64_t zero_rate_updates_ = 0;
+  struct StillInterval {
+    std::uint64_t k = 0;  // the state that ends the interval
+    gtsam::Vector3 mean = gtsam::Vector3::Zero();
+    double dt = 0;
+    bool candidate = false;
+  };
+  std::deque<StillInterval> still_;  // the last three intervals
 };
 
 }  // namespace rsrio::rio

@@ -1,0 +1,74 @@
+// rsrio-odometry-bench: time per radar frame of the odometry core's stages (DSP, ego-velocity,
+// frontend) on simulated stretches of walking, p50 and p99 against the frame period. The frames
+// are simulated in between (not timed); the odometry runs on one thread, as in rsrio-replay.
+//
+//   rsrio-odometry-bench [--seconds S]   (default 12 s of each stretch)
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "rsrio/common/cli.hpp"
+#include "rsrio/rio/odometry.hpp"
+#include "rsrio/sim/simulation.hpp"
+
+namespace {
+
+struct Pct {
+  double p50 = 0, p99 = 0;
+};
+Pct pct(std::vector<double> v) {
+  if (v.empty()) return {};
+  std::sort(v.begin(), v.end());
+  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5))]; };
+  return {at(0.5), at(0.99)};
+}
+
+void bench(const std::string& label, const std::string& scenario_path, double seconds) {
+  rsrio::sim::Scenario s = rsrio::sim::load_scenario(scenario_path);
+  s.duration_s = seconds;
+  rsrio::sim::Simulation sim(s, 2);
+  rsrio::rio::OdometryOptions o;
+  o.frontend.body_T_radar = gtsam::Pose3(gtsam::Rot3(s.rig.radar_in_imu.rotation), s.rig.radar_in_imu.translation);
+  o.frontend.radar_time_offset_s = s.rig.imu_time_offset_s;
+  rsrio::rio::Odometry odometry(s.radar, o);
+  rsrio::AdcCube cube = rsrio::AdcCube::for_config(s.radar);
+  std::vector<double> dsp, ego, frontend, total;
+  double points = 0;
+  for (std::uint64_t k = 0; k < sim.radar_frames(); ++k) {
+    const double t = sim.radar().frame_completion(k);
+    while (sim.imu().next_time() <= t) {
+      const auto m = sim.imu().next();
+      odometry.add_imu({m.time + s.rig.imu_time_offset_s, m.linear_acceleration, m.angular_velocity});
+    }
+    sim.radar().simulate(k, cube);
+    const auto& f = odometry.add_radar_frame(t, cube);
+    dsp.push_back(f.dsp_ms);
+    ego.push_back(f.ego_ms);
+    frontend.push_back(f.frontend_ms);
+    total.push_back(f.dsp_ms + f.ego_ms + f.frontend_ms);
+    points += f.points;
+  }
+  const auto a = pct(dsp), b = pct(ego), c = pct(frontend), d = pct(total);
+  const double period = s.radar.frame_period_ms;
+  std::printf("%-28s %6zu %7.0f | %7.2f %7.2f | %6.3f %6.3f | %7.2f %7.2f | %7.2f %7.2f | %6.0f %7.2f\n", label.c_str(),
+              dsp.size(), points / std::max<std::size_t>(1, dsp.size()), a.p50, a.p99, b.p50, b.p99, c.p50, c.p99, d.p50,
+              d.p99, period, period / std::max(d.p50, 1e-9));
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string seconds_text = "12";
+  rsrio::Cli cli("rsrio-odometry-bench", "Time per radar frame of DSP, ego-velocity and frontend on simulated walks.");
+  cli.option("--seconds", "S", "seconds of each stretch (default 12)", &seconds_text);
+  if (auto rc = cli.parse(argc, argv)) return *rc;
+  const double seconds = std::stod(seconds_text);
+  std::printf("rsrio-odometry-bench: ms per radar frame, one thread (frames simulated in between, not timed)\n\n");
+  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s\n", "stretch", "frames", "points", "DSP p50/p99",
+              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt");
+  bench("test_tiny (xwr1843, 16 loops)", "scenarios/test_tiny.yaml", std::min(seconds, 6.4));
+  bench("seq2 start (mmwcas)", "scenarios/seq2_small_loop.yaml", seconds);
+  return 0;
+}
