@@ -36,7 +36,7 @@ daemon=$!
 pids+=($daemon)
 sleep 2   # the daemon's driver connects when the board answers; DDS discovery meanwhile
 "$bin/rsrio-dca1000-emu" --scenario "$scenario" --address 127.0.0.2 --host-data 127.0.0.1:4098 \
-  --imu-topic /imu --domain "$domain" --ground-truth "$out/ground_truth.tum" >"$out/emulator.log" 2>&1 &
+  --once --imu-topic /imu --domain "$domain" --ground-truth "$out/ground_truth.tum" >"$out/emulator.log" 2>&1 &
 emulator=$!
 pids+=($emulator)
 

@@ -2,12 +2,20 @@
 // (default 127.0.0.2:4096, the Dca1000Emulator) and, while recording, streams the simulator's raw
 // ADC of a scenario at its frame rate to the host's data port, with injected packet faults.
 // The DCA1000 carries one xWR1843, so mmwcas scenarios are refused. The scenario repeats until
-// stopped (frame numbers go on). SIGINT / SIGTERM stop it; the counters are printed on exit.
+// stopped (frame numbers go on), or plays once with --once. SIGINT / SIGTERM stop it; the counters
+// are printed on exit.
+//
+// The rest of the robot, for the demo and end-to-end tests: --imu-topic publishes the scenario's
+// IMU as sensor_msgs/msg/Imu over DDS, and --ground-truth writes the IMU's true pose as a TUM file,
+// both stamped on the wall clock the driver stamps frames with: scenario time t maps to
+// W0 + (t - completion of frame 0), W0 being the moment the first frame is sent.
 // Exit 0 on a clean stop, 2 for a bad command line or scenario, 1 when the socket cannot be bound.
 #include <atomic>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -22,7 +30,9 @@
 #include "rsrio/driver/adc_layout.hpp"
 #include "rsrio/driver/dca1000_emulator.hpp"
 #include "rsrio/sim/scenario.hpp"
+#include "rsrio/runtime/dds.hpp"
 #include "rsrio/sim/simulation.hpp"
+#include "sensor_msgs/msg/ImuPubSubTypes.hpp"
 
 namespace {
 
@@ -48,7 +58,9 @@ int main(int argc, char** argv) {
   using rsrio::tools::parse_u64;
   std::string scenario_path, loss_text = "0", reorder_text = "0", duplicate_text = "0", stall_text = "0",
                              stall_every_text = "50", seed_text = "1", address_text = "127.0.0.2:4096",
-                             host_data_text = "127.0.0.1:4098", threads_text = "2";
+                             host_data_text = "127.0.0.1:4098", threads_text = "2", imu_topic, domain_text = "0",
+                             ground_truth_path;
+  bool once = false;
   rsrio::Cli cli(kProgram,
                  "Emulate a DCA1000EVM + xWR1843 on loopback: answer the DCA1000 command protocol and, while\n"
                  "recording, stream a simulated scenario's raw ADC at its frame rate, with packet faults.");
@@ -65,6 +77,12 @@ int main(int argc, char** argv) {
   cli.option("--host-data", "ADDR", "where the data stream goes, IP[:PORT] (default 127.0.0.1:4098)",
              &host_data_text);
   cli.option("--threads", "N", "simulator threads (default 2)", &threads_text);
+  cli.flag("--once", "stream the scenario once, then exit (default: repeat until stopped)", &once);
+  cli.option("--imu-topic", "NAME", "also publish the scenario's IMU on this ROS 2 topic over DDS (e.g. /imu)",
+             &imu_topic);
+  cli.option("--domain", "ID", "DDS domain for --imu-topic (default 0)", &domain_text);
+  cli.option("--ground-truth", "FILE", "write the IMU's true pose as a TUM trajectory on the stream's clock",
+             &ground_truth_path);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   if (auto rc = rsrio::load_program_config(cli, kProgram, [](rsrio::OptionsNode&) {})) return *rc;
 
@@ -84,6 +102,13 @@ int main(int argc, char** argv) {
   if (!parse_u64(seed_text, f.seed)) return usage_error("--seed: expected a non-negative integer, got '" + seed_text + "'");
   if (!parse_u64(threads_text, threads) || threads < 1 || threads > 64)
     return usage_error("--threads: expected an integer in [1, 64], got '" + threads_text + "'");
+  std::uint64_t domain = 0;
+  if (!parse_u64(domain_text, domain) || domain > 232)
+    return usage_error("--domain: expected an integer in [0, 232], got '" + domain_text + "'");
+  if (!imu_topic.empty() && imu_topic.front() != '/')
+    return usage_error("--imu-topic: expected a ROS 2 topic name starting with '/', got '" + imu_topic + "'");
+  if ((!imu_topic.empty() || !ground_truth_path.empty()) && !once)
+    return usage_error("--imu-topic and --ground-truth need --once (a repeated scenario would jump back in time)");
   f.stall_ms = static_cast<int>(stall);
   f.stall_every_frames = static_cast<int>(stall_every);
   try {
@@ -141,7 +166,7 @@ int main(int argc, char** argv) {
   std::thread producer([&] {
     rsrio::AdcCube cube;
     std::uint64_t k = 0;
-    while (!g_stop.load()) {
+    while (!g_stop.load() && !(once && k == scenario_frames)) {
       std::uint32_t i = 0;
       if (!free_buffers.try_pop(i)) {
         std::this_thread::sleep_for(std::chrono::milliseconds(2));
@@ -154,6 +179,67 @@ int main(int argc, char** argv) {
     }
   });
 
+  // IMU and ground truth on the stream's clock, from their own thread once the stream starts.
+  std::unique_ptr<rsrio::DdsParticipant> dds;
+  eprosima::fastdds::dds::DataWriter* imu_writer = nullptr;
+  if (!imu_topic.empty()) {
+    rsrio::DdsOptions d;
+    d.domain_id = static_cast<int>(domain);
+    d.participant_name = kProgram;
+    dds = std::make_unique<rsrio::DdsParticipant>(d);
+    imu_writer = dds->make_writer(rsrio::ros_topic_to_dds(imu_topic),
+                                  eprosima::fastdds::dds::TypeSupport(new sensor_msgs::msg::ImuPubSubType()),
+                                  rsrio::QosPreset::kSensorData);
+  }
+  std::ofstream ground_truth;
+  if (!ground_truth_path.empty()) {
+    ground_truth.open(ground_truth_path);
+    if (!ground_truth) {
+      std::cerr << kProgram << ": error: cannot write " << ground_truth_path << "\n";
+      g_stop.store(true);
+      producer.join();
+      return 1;
+    }
+  }
+  std::atomic<std::int64_t> stream_start_ns{0};  // CLOCK_REALTIME when frame 0 was sent
+  std::thread imu_thread([&] {
+    if (!imu_writer && !ground_truth.is_open()) return;
+    while (!g_stop.load() && stream_start_ns.load() == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const std::int64_t w0 = stream_start_ns.load();
+    const auto steady0 = std::chrono::steady_clock::now();
+    const double t0 = radar.frame_completion(0);
+    const double offset = scenario.rig.imu_time_offset_s;
+    rsrio::sim::ImuSimulator& imu = sim->imu();
+    sensor_msgs::msg::Imu m;
+    m.header().frame_id("imu");
+    m.orientation().w(0.0);
+    m.orientation_covariance()[0] = -1;  // no orientation estimate (sensor_msgs convention)
+    while (!g_stop.load() && imu.next_time() <= sim->duration()) {
+      const rsrio::sim::ImuSample sample = imu.next();
+      const double since = sample.time - t0;  // negative for the samples before frame 0 completes
+      std::this_thread::sleep_until(steady0 + std::chrono::nanoseconds(std::llround(std::max(0.0, since) * 1e9)));
+      const std::int64_t stamp = w0 + std::llround((since + offset) * 1e9);
+      if (imu_writer) {
+        m.header().stamp().sec(static_cast<std::int32_t>(stamp / 1000000000));
+        m.header().stamp().nanosec(static_cast<std::uint32_t>(stamp % 1000000000));
+        m.angular_velocity().x(sample.angular_velocity.x());
+        m.angular_velocity().y(sample.angular_velocity.y());
+        m.angular_velocity().z(sample.angular_velocity.z());
+        m.linear_acceleration().x(sample.linear_acceleration.x());
+        m.linear_acceleration().y(sample.linear_acceleration.y());
+        m.linear_acceleration().z(sample.linear_acceleration.z());
+        imu_writer->write(&m);
+      }
+      if (ground_truth.is_open()) {
+        const rsrio::sim::RigState truth = sim->imu_state(sample.time);
+        const Eigen::Quaterniond q(truth.rotation);
+        ground_truth << std::fixed << std::setprecision(9) << 1e-9 * static_cast<double>(w0 + std::llround(since * 1e9))
+                     << ' ' << truth.position.x() << ' ' << truth.position.y() << ' ' << truth.position.z() << ' '
+                     << q.x() << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+      }
+    }
+  });
+  std::uint64_t frames_sent = 0;
   std::uint64_t frames_late = 0;  // the simulator was not ready when the frame was due
   bool was_recording = false;
   auto next_due = std::chrono::steady_clock::now();
@@ -166,7 +252,12 @@ int main(int argc, char** argv) {
       if (now >= next_due) {
         std::uint32_t i = 0;
         if (full.try_pop(i)) {
+          if (frames_sent == 0)
+            stream_start_ns.store(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                      std::chrono::system_clock::now().time_since_epoch())
+                                      .count());
           emulator->send_frame(buffers[i]);
+          ++frames_sent;
           free_buffers.try_push(i);
           next_due += period;
           if (next_due < std::chrono::steady_clock::now()) {
@@ -182,8 +273,10 @@ int main(int argc, char** argv) {
     }
     was_recording = recording;
     emulator->serve_commands(wait);
+    if (once && frames_sent == scenario_frames) break;
   }
-  producer.join();
+  producer.join();  // with --once it ends by itself after the last frame
+  imu_thread.join();
   emulator->flush();
 
   const auto& c = emulator->counters();

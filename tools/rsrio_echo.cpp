@@ -49,7 +49,7 @@ struct Echo : fdds::DataReaderListener {
         const auto& q = o.pose().pose().orientation();
         if (tum.is_open())
           tum << std::fixed << std::setprecision(9) << t << ' ' << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << q.x()
-              << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+              << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << std::endl;  // whole lines for readers
         if (!quiet) {
           const double yaw = std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
           std::cout << std::fixed << std::setprecision(3) << "odom " << t << "  " << o.header().frame_id() << "->"

@@ -49,15 +49,21 @@ void write_tum(const std::string& path, const Trajectory& t) {
 }
 
 void associate(const Trajectory& ref, const Trajectory& est, double max_dt, Trajectory& ref_out, Trajectory& est_out) {
+  // As evo's associate_trajectories: every stamp of the SHORTER trajectory takes the nearest stamp
+  // of the longer one (first of equals, as np.argmin), if within max_dt. So a 200 Hz ground truth
+  // against a 10 Hz estimate gives one pair per estimate, not one per ground-truth sample.
   ref_out.clear();
   est_out.clear();
-  if (est.empty()) return;
+  if (est.empty() || ref.empty()) return;
+  const bool est_shorter = est.size() < ref.size();
+  const Trajectory& shorter = est_shorter ? est : ref;
+  const Trajectory& longer = est_shorter ? ref : est;
   std::size_t j = 0;
-  for (const auto& r : ref) {
-    while (j + 1 < est.size() && std::abs(est[j + 1].t - r.t) <= std::abs(est[j].t - r.t)) ++j;
-    if (std::abs(est[j].t - r.t) <= max_dt) {
-      ref_out.push_back(r);
-      est_out.push_back(est[j]);
+  for (const auto& a : shorter) {
+    while (j + 1 < longer.size() && std::abs(longer[j + 1].t - a.t) < std::abs(longer[j].t - a.t)) ++j;
+    if (std::abs(longer[j].t - a.t) <= max_dt) {
+      ref_out.push_back(est_shorter ? longer[j] : a);
+      est_out.push_back(est_shorter ? a : longer[j]);
     }
   }
 }

@@ -111,6 +111,15 @@ TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are
   associate(ref, est, 0.01, ra, ea);
   CHECK(ra.size() == 3);
   CHECK(ea[2].t == Approx(2.004));
+  // A dense reference (200 Hz ground truth) and a sparse estimate (10 Hz): one pair per estimate,
+  // each with the nearest reference stamp (evo pairs from the shorter trajectory).
+  Trajectory dense, sparse;
+  for (int i = 0; i < 400; ++i) dense.push_back({i * 0.005, Eigen::Vector3d(i, 0, 0), Eigen::Quaterniond::Identity()});
+  for (int i = 0; i < 20; ++i) sparse.push_back({i * 0.1 + 0.001, Eigen::Vector3d(20 * i, 0, 0), Eigen::Quaterniond::Identity()});
+  associate(dense, sparse, 0.01, ra, ea);
+  REQUIRE(ea.size() == 20);
+  CHECK(ea[7].t == Approx(0.701));
+  CHECK(ra[7].t == Approx(0.700));
   std::ofstream(path) << "0 1 2 3 0 0 0 1\n1 2 3\n";
   try {
     read_tum(path);

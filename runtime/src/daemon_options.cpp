@@ -35,6 +35,7 @@ DaemonOptions load_daemon_options(OptionsNode& node) {
   node.read("rt_required", o.rt_required);
   node.read("radar_timeout_s", o.radar_timeout_s, {0.05, 60.0});
   node.read("imu_timeout_s", o.imu_timeout_s, {0.01, 60.0});
+  node.read("imu_wait_s", o.imu_wait_s, {0.0, 5.0});
   node.read("status_period_s", o.status_period_s, {0.05, 60.0});
   node.read("shutdown_timeout_s", o.shutdown_timeout_s, {0.1, 60.0});
   for (const auto* topic : {&o.imu_topic, &o.odom_topic, &o.pose_topic, &o.status_topic})
@@ -78,6 +79,7 @@ void print(std::ostream& out, const DaemonOptions& o) {
       << "  rt_required: " << (o.rt_required ? "true" : "false") << "\n"
       << "  radar_timeout_s: " << o.radar_timeout_s << "\n"
       << "  imu_timeout_s: " << o.imu_timeout_s << "\n"
+      << "  imu_wait_s: " << o.imu_wait_s << "\n"
       << "  status_period_s: " << o.status_period_s << "\n"
       << "  shutdown_timeout_s: " << o.shutdown_timeout_s << "\n";
 }

@@ -298,47 +298,70 @@ struct Pipeline::Impl : fdds::DataReaderListener {
     PoseOutput out;
     rio::ImuSample s;
     FrameRef ref;
+    bool pending = false;        // a frame waiting for the IMU to reach its time
+    std::int64_t pending_since = 0;
+    double latest_imu_t = -1e300;
+    const auto imu_wait_ns = static_cast<std::int64_t>(options.imu_wait_s * 1e9);
     while (true) {
       heartbeat.fetch_add(1, std::memory_order_relaxed);
-      while (imu.try_pop(s)) stage.add_imu(s);
-      if (frames.try_pop(ref)) {
-        // IMU that arrived with the frame goes in first (it precedes the frame in time).
-        while (imu.try_pop(s)) stage.add_imu(s);
-        const bool damaged = ref.flags & kFrameDamaged;
-        bool ok = false;
-        if (!damaged) {
-          try {
-            decode_frame(radar, pool[ref.slot], cube);
-            ok = true;
-          } catch (const std::exception&) {
-            decode_errors.fetch_add(1, std::memory_order_relaxed);
-            event(rio_events, Event::kDecodeError, static_cast<std::int64_t>(ref.frame_number));
-          }
-        } else {
-          event(rio_events, Event::kFrameDamaged, static_cast<std::int64_t>(ref.frame_number));
-        }
-        free_slots.try_push(ref.slot);
-        if (ok) {
-          try {
-            out.stamp_ns = ref.stamp_ns;
-            out.frame_complete_mono_ns = ref.complete_mono_ns;
-            out.frame_number = ref.frame_number;
-            if (stage.add_frame(1e-9 * static_cast<double>(ref.stamp_ns), cube, out)) {
-              poses_made.fetch_add(1, std::memory_order_relaxed);
-              poses.try_push(out);  // full: newest dropped, counted by the queue
-            }
-          } catch (const std::exception& e) {
-            processing_errors.fetch_add(1, std::memory_order_relaxed);
-            event(rio_events, Event::kProcessingError, static_cast<std::int64_t>(ref.frame_number), e.what());
-          }
-        }
-        continue;
+      while (imu.try_pop(s)) {
+        stage.add_imu(s);
+        latest_imu_t = s.t;
       }
-      if (stop_flag.load(std::memory_order_relaxed)) break;
-      if (source_finished.load(std::memory_order_acquire) && frames.size() == 0) break;
+      if (!pending && frames.try_pop(ref)) {
+        pending = true;
+        pending_since = monotonic_ns();
+      }
+      if (pending) {
+        // The frontend integrates the IMU up to the frame's time: wait (briefly, bounded) until the
+        // IMU has arrived that far; IMU over DDS may trail the radar by a few milliseconds.
+        const bool imu_there = latest_imu_t >= 1e-9 * static_cast<double>(ref.stamp_ns);
+        if (imu_there || monotonic_ns() - pending_since > imu_wait_ns || source_finished.load()) {
+          pending = false;
+          process(stage, ref, cube, out);
+          continue;
+        }
+      }
+      if (!pending) {
+        if (stop_flag.load(std::memory_order_relaxed)) break;
+        if (source_finished.load(std::memory_order_acquire) && frames.size() == 0) break;
+      } else if (stop_flag.load(std::memory_order_relaxed)) {
+        break;
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     rio_done.store(true, std::memory_order_release);
+  }
+
+  void process(OdometryStage& stage, const FrameRef& ref, AdcCube& cube, PoseOutput& out) {
+    const bool damaged = ref.flags & kFrameDamaged;
+    bool ok = false;
+    if (!damaged) {
+      try {
+        decode_frame(radar, pool[ref.slot], cube);
+        ok = true;
+      } catch (const std::exception&) {
+        decode_errors.fetch_add(1, std::memory_order_relaxed);
+        event(rio_events, Event::kDecodeError, static_cast<std::int64_t>(ref.frame_number));
+      }
+    } else {
+      event(rio_events, Event::kFrameDamaged, static_cast<std::int64_t>(ref.frame_number));
+    }
+    std::uint32_t slot = ref.slot;
+    free_slots.try_push(slot);
+    if (!ok) return;
+    try {
+      out.stamp_ns = ref.stamp_ns;
+      out.frame_complete_mono_ns = ref.complete_mono_ns;
+      out.frame_number = ref.frame_number;
+      if (stage.add_frame(1e-9 * static_cast<double>(ref.stamp_ns), cube, out)) {
+        poses_made.fetch_add(1, std::memory_order_relaxed);
+        poses.try_push(out);  // full: newest dropped, counted by the queue
+      }
+    } catch (const std::exception& e) {
+      processing_errors.fetch_add(1, std::memory_order_relaxed);
+      event(rio_events, Event::kProcessingError, static_cast<std::int64_t>(ref.frame_number), e.what());
+    }
   }
 
   // ---- publisher thread ------------------------------------------------------------------------

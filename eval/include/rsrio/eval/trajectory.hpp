@@ -29,7 +29,8 @@ using Trajectory = std::vector<StampedPose>;
 Trajectory read_tum(const std::string& path);
 void write_tum(const std::string& path, const Trajectory& trajectory);
 
-/// Pairs (reference, estimate) with |dt| <= max_dt, in reference order.
+/// Pairs (reference, estimate) with |dt| <= max_dt as evo does: each stamp of the shorter
+/// trajectory with the nearest of the longer, in the shorter one's order.
 void associate(const Trajectory& ref, const Trajectory& est, double max_dt, Trajectory& ref_out, Trajectory& est_out);
 
 enum class Alignment { kNone, kSE3, kSE2 };

@@ -47,6 +47,7 @@ struct DaemonOptions {
   // Health.
   double radar_timeout_s = 1.0;   // no frame this long: radar stale, driver restarted
   double imu_timeout_s = 0.5;     // no IMU this long: IMU stale
+  double imu_wait_s = 0.1;        // a frame waits at most this long for the IMU to reach its time
   double status_period_s = 1.0;
   double shutdown_timeout_s = 5.0;
 };
