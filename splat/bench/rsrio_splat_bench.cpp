@@ -1,7 +1,12 @@
-// rsrio-splat-bench: time of the RadarSplat++ core per keyframe image on the cascade's grid
-// (mmwcas: 128 range x 128 azimuth, 32 Doppler bins): RA render forward, backward, the image
-// loss with its gradient, RD forward and backward, for 2k and 10k Gaussians, float and double.
-// One thread. Numbers are medians over repeated runs.
+// rsrio-splat-bench:
+//  1. time of the RadarSplat++ core per keyframe image on the cascade's grid (mmwcas: 128 range
+//     x 128 azimuth, 32 Doppler bins) and the xwr1843's: RA render forward, backward, the image
+//     loss with its gradient, RD forward and backward, for 2k and 10k Gaussians, float and double.
+//     One thread. Numbers are medians over repeated runs.
+//  2. the backend per keyframe (splat::Backend with its default options: pose refinement,
+//     mapping, BA) on a synthetic walk through a room of Gaussians whose images are rendered
+//     (so the optimisation has the work of a real stretch without the simulator): mean and
+//     maximum time per stage and keyframe, Gaussians, and the process's peak memory (ru_maxrss).
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,6 +16,10 @@
 #include <random>
 #include <vector>
 
+#include <sys/resource.h>
+
+#include "rsrio/dsp/processor.hpp"
+#include "rsrio/splat/backend.hpp"
 #include "rsrio/splat/losses.hpp"
 #include "rsrio/splat/ra_renderer.hpp"
 #include "rsrio/splat/rd_renderer.hpp"
@@ -83,6 +92,101 @@ void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scen
               t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total);
 }
 
+// ---- backend on a synthetic walk
+
+GaussianScene make_room(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  GaussianScene scene;
+  auto add = [&](const Eigen::Vector3d& p, double rho) {
+    scene.add(p, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.05)), std::log(rho));
+  };
+  auto wall = [&](Eigen::Vector3d a, Eigen::Vector3d b) {
+    const int n = static_cast<int>((b - a).norm() / 0.3);
+    for (int k = 0; k <= n; ++k)
+      for (const double z : {-0.6, 0.0, 0.6}) add(a + (b - a) * k / n + Eigen::Vector3d(0, 0, z), std::pow(10.0, -0.5 + u(rng)));
+  };
+  wall({-3, -4, 0}, {12, -4, 0});
+  wall({12, -4, 0}, {12, 5, 0});
+  wall({12, 5, 0}, {-3, 5, 0});
+  wall({-3, 5, 0}, {-3, -4, 0});
+  for (int k = 0; k < 150; ++k) add({-2.5 + 14 * u(rng), -3.5 + 8 * u(rng), 0.6 * (u(rng) - 0.5)}, 0.2 + 2 * u(rng));
+  return scene;
+}
+
+struct BackendRun {
+  std::size_t keyframes = 0, gaussians = 0;
+  double pose_mean = 0, mapping_mean = 0, ba_mean = 0, total_mean = 0, total_max = 0;
+  double iterations_per_keyframe = 0;  // all stages
+  std::uint64_t budget_stops = 0;
+};
+
+BackendRun run_backend(const rsrio::RadarConfig& config, double max_image_range_m, int frames) {
+  const rsrio::DspGrids grids = rsrio::DspProcessor(config).grids();
+  BackendOptions o;
+  o.max_image_range_m = max_image_range_m;
+  Backend backend(config, grids, o);
+  const RadarImageGrid grid = backend.grid();
+  // Images on the full DSP grid (the backend cuts them).
+  RadarImageGrid full = RadarImageGrid::from_config(config);
+  const GaussianScene world = make_room(7);
+  const RaRenderer<float> ra_renderer(full);
+  RdRenderOptions rdo;
+  rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
+  RdRenderer<float> rd_renderer(full, rdo);
+  Image<float> ra, rd;
+  std::vector<rsrio::DspPoint> points;
+  const double dt = 0.1;
+  BackendRun out;
+  for (int k = 0; k < frames; ++k) {
+    // A walk along x at 0.8 m/s, weaving +-0.5 m.
+    const double t = k * dt;
+    Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
+    world_T_radar.translation() = Eigen::Vector3d(0.8 * t, 0.5 * std::sin(0.5 * t), 0);
+    const double heading = std::atan2(0.25 * std::cos(0.5 * t), 0.8);
+    world_T_radar.linear() = Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d v = world_T_radar.linear().transpose() * Eigen::Vector3d(0.8, 0.25 * std::cos(0.5 * t), 0);
+    ra_renderer.render(world, world_T_radar.inverse(), ra);
+    rd_renderer.render(ra, v, rd);
+    points.clear();
+    for (std::size_t i = 0; i < world.size(); i += 3) {  // a third of the scatterers detected
+      const Eigen::Vector3d p = world_T_radar.inverse() * world.mean(i);
+      const double r = p.norm();
+      if (p.x() < 0.3 || r > grid.range_bins * grid.range_bin_m) continue;
+      rsrio::DspPoint d;
+      d.x = float(p.x()), d.y = float(p.y()), d.z = float(p.z());
+      d.range_bin = float(full.range_to_bin(r));
+      d.azimuth_bin = float(full.sin_to_azimuth_bin(p.y() / r));
+      d.doppler_mps = float(-p.dot(v) / r);
+      d.snr_db = 20;
+      points.push_back(d);
+    }
+    rsrio::DspResult result;
+    result.ra = {ra.data(), std::size_t(ra.size())};
+    result.rd = {rd.data(), std::size_t(rd.size())};
+    result.points = points;
+    const Eigen::Isometry3d odom = world_T_radar;  // body = radar (identity extrinsic)
+    const auto a = std::chrono::steady_clock::now();
+    const bool kf = backend.add_frame({t, gtsam::Pose3(gtsam::Rot3(odom.linear()), odom.translation()), &result});
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+    if (kf) {
+      out.total_mean += s;
+      out.total_max = std::max(out.total_max, s);
+    }
+  }
+  const BackendStats& st = backend.stats();
+  out.keyframes = st.keyframes;
+  out.gaussians = st.gaussians;
+  const double n = static_cast<double>(std::max<std::uint64_t>(1, st.keyframes));
+  out.pose_mean = st.pose.total_s / n;
+  out.mapping_mean = st.mapping.total_s / n;
+  out.ba_mean = st.ba.total_s / n;
+  out.total_mean /= n;
+  out.iterations_per_keyframe = static_cast<double>(st.pose.iterations + st.mapping.iterations + st.ba.iterations) / n;
+  out.budget_stops = st.pose.budget_stops + st.mapping.budget_stops + st.ba.budget_stops;
+  return out;
+}
+
 }  // namespace
 
 int main() {
@@ -98,5 +202,41 @@ int main() {
     run<float>("float", grid, scene, reps);
     run<double>("double", grid, scene, reps);
   }
+
+  rsrio::RadarConfig small = rsrio::radar_preset("xwr1843");
+  const RadarImageGrid grid_small = RadarImageGrid::from_config(small);
+  std::printf("\nxwr1843 grid %d range x %d azimuth (%.3f m bins), %d Doppler bins; one thread\n\n", grid_small.range_bins,
+              grid_small.azimuth_bins, grid_small.range_bin_m, grid_small.doppler_bins);
+  std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    |\n");
+  std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------|\n");
+  run<float>("float", grid_small, make_scene(2000, 42), 50);
+
+  std::printf("\nbackend per keyframe (default options: pose %d it, mapping %d it over N_map = %d, BA %d it within "
+              "r_BA = %.0f m, at most %d keyframes), synthetic 8 s walk at 0.8 m/s in a 15 m x 9 m room; seconds\n\n",
+              BackendOptions{}.pose.max_iterations, BackendOptions{}.mapping.max_iterations,
+              BackendOptions{}.mapping_keyframes, BackendOptions{}.ba.max_iterations, BackendOptions{}.ba_radius_m,
+              BackendOptions{}.ba_max_keyframes);
+  std::printf("| radar   | image range | keyframes | Gaussians | it/KF  | budget stops | pose     | mapping  | BA       | total    | max      |\n");
+  std::printf("|---------|-------------|-----------|-----------|--------|--------------|----------|----------|----------|----------|----------|\n");
+  struct Case {
+    const char* preset;
+    double range;
+  };
+  for (const Case c : {Case{"xwr1843", 12.0}, Case{"xwr1843", 0.0}, Case{"mmwcas", 12.0}}) {
+    rsrio::RadarConfig config = rsrio::radar_preset(c.preset);
+    const BackendRun r = run_backend(config, c.range, 80);
+    char range[32];
+    if (c.range > 0)
+      std::snprintf(range, sizeof range, "%.0f m", c.range);
+    else
+      std::snprintf(range, sizeof range, "full");
+    std::printf("| %-7s | %-11s | %9zu | %9zu | %6.0f | %12llu | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f |\n", c.preset,
+                range, r.keyframes, r.gaussians, r.iterations_per_keyframe,
+                static_cast<unsigned long long>(r.budget_stops), r.pose_mean, r.mapping_mean, r.ba_mean, r.total_mean,
+                r.total_max);
+  }
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  std::printf("\npeak memory of the process (ru_maxrss): %.1f MB\n", usage.ru_maxrss / 1024.0);
   return 0;
 }

@@ -1,0 +1,299 @@
+// The RadarSplat++ backend (paper Sec. III-E, SPEC Sec. 9): keyframes from the frontend's poses,
+// a Gaussian map initialised from the keyframes' CFAR points, and per new keyframe
+//   1. pose refinement of the newest keyframe (RA + RD loss, poses only),
+//   2. mapping over the last N_map keyframes (RA loss + scale regulariser, Gaussians only),
+//   3. bundle adjustment over the keyframes within r_BA of the newest (or the last N, the
+//      sliding-window option): RA + RD loss + scale regulariser, poses and Gaussians,
+// each a bounded number of Adam iterations inside a time budget, stopping early when the loss
+// has stopped moving.
+//
+// FRAMES. The frontend estimates odom_T_body (its FrontendState::world_T_body: body = IMU). The
+// backend works with radar poses world_T_radar = map_T_odom odom_T_body body_T_radar
+// (options.body_T_radar is the extrinsic) in the MAP frame, which is the odom frame at the first
+// keyframe (that keyframe's pose is the gauge and is never changed). After each keyframe
+//     map_T_odom = map_T_body(newest keyframe, refined) * odom_T_body(newest keyframe)^-1,
+// so that corrected(odom_T_body) = map_T_odom odom_T_body is the refined keyframe pose composed
+// with the frontend's motion since that keyframe (REP-105's map -> odom). At the newest keyframe
+// corrected() is exactly its refined pose; between keyframes it moves exactly as the frontend.
+//
+// POSES. 3-DoF (default, the paper's x, y, yaw): a keyframe's x, y, yaw are optimised and its z,
+// roll and pitch stay what the (corrected) frontend gave (elevation is marginalised by the
+// renderer, so the images hardly see them). 6-DoF: se(3) left increments (pose.hpp).
+//
+// VELOCITY for the RD rendering of keyframe k (paper: "v obtained from T_k and T_{k-1} and the
+// time difference"): the backward difference of the radar positions of keyframe k and its
+// previous keyframe k-1, v_pair(T_k, T_{k-1}) (radar_velocity_from_poses), plus a constant that
+// turns this average over the keyframe interval into the velocity AT frame k:
+//     v_k = v_pair(T_k, T_{k-1}) + (v_odom,k - v_pair(odomT_k, odomT_{k-1})),
+// v_odom,k = the frontend's velocity from frame k and its predecessor frame (the instantaneous
+// velocity that the measured Doppler shows). The constant does not depend on the optimised poses,
+// so the RD loss constrains the RELATIVE motion between consecutive keyframes (the scale and
+// heading drift of the frontend), with gradients to both poses. The first keyframe has no
+// previous keyframe: v = v_odom (constant).
+//
+// NaN guard: a non-finite loss or gradient skips the step (counted in stats().nan_guard_hits);
+// poses are checked after each step and restored if not finite; the scene is sanitised after
+// each stage (GaussianScene::sanitize, non-finite Gaussians removed and counted).
+//
+// Not thread-safe: one thread calls add_frame() (the backend thread of the daemon); the
+// accessors may be called from that thread between add_frame() calls.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <gtsam/geometry/Pose3.h>
+
+#include "rsrio/common/options.hpp"
+#include "rsrio/common/radar_config.hpp"
+#include "rsrio/dsp/processor.hpp"
+#include "rsrio/splat/adam.hpp"
+#include "rsrio/splat/gaussian_scene.hpp"
+#include "rsrio/splat/grid.hpp"
+#include "rsrio/splat/losses.hpp"
+#include "rsrio/splat/pose.hpp"
+#include "rsrio/splat/ra_renderer.hpp"
+#include "rsrio/splat/rd_renderer.hpp"
+
+namespace rsrio::splat {
+
+/// One optimisation stage: at most max_iterations Adam steps and time_budget_s seconds (0: no
+/// budget), early stop when the loss changed by less than convergence_rel (relative) for
+/// convergence_patience consecutive iterations. Learning rates decay exponentially to
+/// lr_final_factor of their value over max_iterations.
+struct StageOptions {
+  int max_iterations = 50;
+  double time_budget_s = 0.5;
+  double convergence_rel = 1e-4;
+  int convergence_patience = 5;
+  double lr_final_factor = 0.1;
+};
+
+struct BackendOptions {
+  // ---- extrinsic: the radar in the body (IMU) frame, as the frontend's body_T_radar.
+  Eigen::Isometry3d body_T_radar = Eigen::Isometry3d::Identity();
+  // ---- keyframe selection (from the frontend's motion since the last keyframe; any one).
+  double keyframe_distance_m = 0.4;
+  double keyframe_angle_deg = 10.0;
+  double keyframe_time_s = 1.0;
+  // ---- windows
+  int mapping_keyframes = 10;         // N_map
+  std::string ba_window = "radius";   // radius (r_BA around the newest keyframe) | sliding (last N)
+  double ba_radius_m = 10.0;          // r_BA
+  int ba_sliding_keyframes = 10;      // N of the sliding window
+  int ba_max_keyframes = 10;          // bound on either window (the newest ones are kept)
+  // ---- stages
+  // Defaults: about 0.5 s per keyframe at most, i.e. one core keeps up with a keyframe every
+  // 0.4 m at walking speed (rsrio-splat-bench measures it).
+  StageOptions pose{40, 0.1, 1e-4, 5, 0.1};
+  StageOptions mapping{20, 0.15, 1e-4, 5, 0.1};
+  StageOptions ba{20, 0.25, 1e-4, 5, 0.1};
+  int first_keyframe_mapping_iterations = 100;  // the map of the first keyframe alone (no budget)
+  // ---- loss
+  bool rd_loss = true;                // RD term in pose refinement and BA (the ablation: false)
+  double ra_weight = 1.0;
+  double rd_weight = 1.0;
+  double l1_weight = 0.8;
+  double ssim_weight = 0.2;
+  int ssim_window = 11;
+  double compression_floor = 1e-3;         // knee of the log compression, relative to the reference
+  double reference_percentile = 99.0;      // of the first keyframe's images: the fixed references
+  int skip_near_range_bins = 4;            // TX-RX leakage and DC
+  double scale_regulariser_weight = 100.0;
+  double scale_regulariser_max_m = 0.5;
+  // ---- rendering
+  double max_image_range_m = 0;        // only range bins below this take part (0: the whole grid);
+                                       // indoors the far bins hold noise and ghosts, and cost time
+  double max_render_range_m = 0;       // Gaussians farther than this from the radar are not drawn (0: grid)
+  double elevation_gain_sigma_sin = 0; // RaRenderOptions
+  // Doppler soft-binning sigma in bins. <= 0: the DSP's Doppler main lobe (psf_doppler_window's
+  // power FWHM / 2.355, 0.61 bins for hann). The paper's 3 bins suit its fine Doppler bins; on
+  // an xwr1843 frame (0.29 m/s bins) 3 bins blur the RD image so much that it hardly depends
+  // on the velocity (backend_sim_test measures the correlation against the DSP's RD).
+  double rd_kernel_sigma_bins = 0;
+  int rd_window_bins = 10;             // paper
+  double rd_gain = 0;                  // RD / RA scale; <= 0: calibrated on the first keyframe
+  std::string psf_range_window = "hann";  // the DSP's windows (dsp.range_window / angle_window)
+  std::string psf_angle_window = "none";
+  std::string psf_doppler_window = "hann";
+  // ---- poses
+  int pose_dof = 3;                    // 3: x, y, yaw; 6: se(3)
+  // ---- learning rates (Adam)
+  double lr_pose_translation = 0.01;   // m
+  double lr_pose_rotation = 0.004;     // rad
+  double lr_means = 0.005;             // m
+  double lr_rotations = 1e-3;
+  double lr_log_scales = 5e-3;
+  double lr_log_returns = 0.03;
+  // ---- scene
+  int max_gaussians = 100'000;
+  double init_scale_m = 0.1;
+  double init_min_spacing_m = 0.1;     // a CFAR point this near an existing Gaussian adds none
+  double static_doppler_tolerance_mps = 0.3;  // points moving relative to the world add none
+  double min_point_snr_db = 0;
+};
+
+/// Reads the `backend:` section (every key optional, defaults above); strict: unknown keys,
+/// wrong types and out-of-range values throw ConfigError naming the key.
+///   body_T_radar: {translation_m: [x, y, z], rpy_deg: [roll, pitch, yaw]}
+///   pose / mapping / ba: {max_iterations, time_budget_s, convergence_rel, convergence_patience,
+///                         lr_final_factor}
+BackendOptions load_backend_options(OptionsNode node);
+void validate(const BackendOptions& options, const std::string& file = "<built-in>");
+
+struct BackendFrame {
+  double t = 0;                         // s, radar clock
+  gtsam::Pose3 odom_T_body;             // the frontend's world_T_body (IMU frame) at t
+  const rsrio::DspResult* dsp = nullptr;  // ra, rd, points of the frame; read during add_frame only
+};
+
+struct StageStats {
+  std::uint64_t runs = 0;
+  std::uint64_t iterations = 0;
+  std::uint64_t converged = 0;       // runs stopped by the convergence test
+  std::uint64_t budget_stops = 0;    // runs stopped by the time budget
+  double total_s = 0, last_s = 0, max_s = 0;
+  double last_initial_loss = 0, last_final_loss = 0;
+};
+
+struct BackendStats {
+  std::uint64_t frames = 0;
+  std::uint64_t rejected_frames = 0;  // bad input (null DSP, wrong image size, non-finite pose, time)
+  std::uint64_t keyframes = 0;
+  std::uint64_t nan_guard_hits = 0;   // skipped steps + restored poses + non-finite Gaussians removed
+  std::uint64_t gaussians_added = 0;
+  std::uint64_t points_rejected_dynamic = 0;
+  std::size_t gaussians = 0;
+  double rd_gain = 0;
+  StageStats pose, mapping, ba;
+};
+
+/// One keyframe as the backend holds it.
+struct Keyframe {
+  double t = 0;
+  Eigen::Isometry3d odom_T_body = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();  // map frame, optimised
+  Eigen::Vector3d velocity_correction = Eigen::Vector3d::Zero();    // the constant of the header
+  Image<float> ra, rd;                          // measured, linear
+  Image<float> ra_target, rd_target;            // compressed (ImageLoss::prepare_measurement)
+};
+
+/// The images of one keyframe rendered from the current map (for pictures and checks).
+struct KeyframeRender {
+  Image<float> ra_measured, ra_rendered, rd_measured, rd_rendered;  // linear
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+};
+
+/// The loss of one keyframe's images for a pose, with gradients: what every stage sums. Scalar:
+/// float in the backend, double for the finite-difference tests.
+template <typename Scalar>
+class KeyframeObjective {
+ public:
+  KeyframeObjective(const RadarImageGrid& grid, const RaRenderOptions& ra_options, const RdRenderOptions& rd_options,
+                    const ImageLossOptions& ra_loss, const ImageLossOptions& rd_loss);
+
+  struct Result {
+    double ra_loss = 0, rd_loss = 0;
+  };
+  /// RA loss (+ rd_weight x RD loss when rd_weight > 0 and velocity is not null) of the listed
+  /// Gaussians seen from radar_T_world against the compressed targets. ADDS gradients into
+  /// scene_gradients (may be null), grad_pose (left increment of radar_T_world, may be null) and
+  /// grad_velocity (may be null).
+  Result evaluate(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
+                  const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d* velocity,
+                  const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight, double rd_weight,
+                  SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity);
+
+  const RaRenderer<Scalar>& ra_renderer() const { return ra_renderer_; }
+  RdRenderer<Scalar>& rd_renderer() { return rd_renderer_; }
+  ImageLoss<Scalar>& ra_loss() { return ra_loss_; }
+  ImageLoss<Scalar>& rd_loss() { return rd_loss_; }
+
+ private:
+  RaRenderer<Scalar> ra_renderer_;
+  RdRenderer<Scalar> rd_renderer_;
+  ImageLoss<Scalar> ra_loss_, rd_loss_;
+  Image<Scalar> ra_, rd_, grad_ra_, grad_rd_;
+};
+
+extern template class KeyframeObjective<float>;
+extern template class KeyframeObjective<double>;
+
+/// The RD velocity of the header: v_pair(current, previous, dt) + correction, with the Jacobians
+/// of v_pair (the correction is constant).
+RadarVelocity keyframe_velocity(const Eigen::Isometry3d& radar_T_world_current,
+                                const Eigen::Isometry3d& radar_T_world_previous, double dt,
+                                const Eigen::Vector3d& correction);
+
+class Backend {
+ public:
+  /// Throws std::invalid_argument when the grids are not those of `config` (sizes and steps) or
+  /// ConfigError (via validate) for unusable options.
+  Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const BackendOptions& options);
+  ~Backend();
+  Backend(const Backend&) = delete;
+  Backend& operator=(const Backend&) = delete;
+
+  /// Feeds one frame (in time order). Returns true when it became a keyframe and was optimised.
+  /// The first frame is never a keyframe (a keyframe needs the frontend's velocity, from its
+  /// predecessor frame). A bad frame is counted (stats().rejected_frames) and ignored.
+  bool add_frame(const BackendFrame& frame);
+
+  gtsam::Pose3 map_T_odom() const;
+  /// map_T_odom * odom_T_body.
+  gtsam::Pose3 corrected(const gtsam::Pose3& odom_T_body) const;
+  const BackendStats& stats() const;
+  /// (t, map_T_body) of every keyframe, refined.
+  std::vector<std::pair<double, gtsam::Pose3>> keyframe_poses() const;
+
+  // ---- inspection (tests, pictures, benchmarks)
+  const BackendOptions& options() const { return options_; }
+  /// The grid the backend renders on: the DSP's, cut at options().max_image_range_m.
+  const RadarImageGrid& grid() const { return grid_; }
+  const GaussianScene& scene() const { return scene_; }
+  const std::vector<Keyframe>& keyframes() const { return keyframes_; }
+  /// Measured and rendered RA / RD of keyframe k (index into keyframes()).
+  KeyframeRender render_keyframe(std::size_t k);
+
+ private:
+  bool accept(const BackendFrame& frame) const;
+  bool is_keyframe(double t, const Eigen::Isometry3d& odom_T_body) const;
+  void start_map(Keyframe& first);
+  void add_gaussians(const Keyframe& keyframe, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity);
+  /// The stages: `poses` = keyframes whose pose is optimised, `views` = keyframes rendered.
+  void run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
+                 bool use_rd, const StageOptions& stage, int max_iterations, StageStats& stats);
+  std::vector<std::size_t> ba_window() const;
+  Eigen::Vector3d velocity_of(std::size_t k, RadarVelocity* jacobians) const;
+  void cleanup_scene();
+  void update_correction();
+
+  BackendOptions options_;
+  RadarImageGrid grid_;                // the DSP's grid, cut at max_image_range_m
+  int dsp_range_bins_ = 0;             // the DSP's images have this many rows
+  RaRenderOptions ra_options_;
+  RdRenderOptions rd_options_;
+  ImageLossOptions ra_loss_options_, rd_loss_options_;
+  std::unique_ptr<KeyframeObjective<float>> objective_;
+  GaussianScene scene_;
+  SplatAdam scene_adam_;
+  std::vector<Keyframe> keyframes_;
+  Eigen::Isometry3d map_T_odom_ = Eigen::Isometry3d::Identity();
+  BackendStats stats_;
+  // The previous frame (for the frontend's instantaneous velocity).
+  bool have_previous_ = false;
+  double previous_t_ = 0;
+  Eigen::Isometry3d previous_odom_T_body_ = Eigen::Isometry3d::Identity();
+  // Scratch.
+  SceneGradients gradients_;
+};
+
+}  // namespace rsrio::splat

@@ -1,0 +1,638 @@
+#include "rsrio/splat/backend.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <stdexcept>
+
+namespace rsrio::splat {
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+void load_stage(OptionsNode node, StageOptions& s) {
+  node.read("max_iterations", s.max_iterations, {0, 100000});
+  node.read("time_budget_s", s.time_budget_s, {0.0, 3600.0});
+  node.read("convergence_rel", s.convergence_rel, {0.0, 1.0});
+  node.read("convergence_patience", s.convergence_patience, {1, 100000});
+  node.read("lr_final_factor", s.lr_final_factor, {1e-6, 1.0});
+  node.finish();
+}
+
+bool finite(const Eigen::Isometry3d& T) { return T.matrix().allFinite(); }
+
+Eigen::Isometry3d to_isometry(const gtsam::Pose3& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = p.rotation().matrix();
+  T.translation() = p.translation();
+  return T;
+}
+
+gtsam::Pose3 to_pose3(const Eigen::Isometry3d& T) {
+  // Re-orthonormalise: products of many isometries drift by rounding.
+  const Eigen::Quaterniond q(T.linear());
+  return gtsam::Pose3(gtsam::Rot3(q.normalized()), gtsam::Point3(T.translation()));
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------------------------
+// options
+
+BackendOptions load_backend_options(OptionsNode node) {
+  BackendOptions o;
+  {
+    OptionsNode e = node.child("body_T_radar");
+    std::vector<double> t{0, 0, 0}, rpy{0, 0, 0};
+    e.read("translation_m", t);
+    e.read("rpy_deg", rpy);
+    if (t.size() != 3) e.fail("translation_m", "three numbers [x, y, z]");
+    if (rpy.size() != 3) e.fail("rpy_deg", "three numbers [roll, pitch, yaw]");
+    e.finish();
+    o.body_T_radar = Eigen::Isometry3d::Identity();
+    o.body_T_radar.translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+    o.body_T_radar.linear() = (Eigen::AngleAxisd(rpy[2] * kDeg, Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(rpy[1] * kDeg, Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(rpy[0] * kDeg, Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+  }
+  node.read("keyframe_distance_m", o.keyframe_distance_m, {0.0, 100.0});
+  node.read("keyframe_angle_deg", o.keyframe_angle_deg, {0.0, 180.0});
+  node.read("keyframe_time_s", o.keyframe_time_s, {0.0, 3600.0});
+  node.read("mapping_keyframes", o.mapping_keyframes, {1, 1000});
+  node.read_choice("ba_window", o.ba_window, {"radius", "sliding"});
+  node.read("ba_radius_m", o.ba_radius_m, {0.0, 1000.0});
+  node.read("ba_sliding_keyframes", o.ba_sliding_keyframes, {1, 1000});
+  node.read("ba_max_keyframes", o.ba_max_keyframes, {1, 1000});
+  load_stage(node.child("pose"), o.pose);
+  load_stage(node.child("mapping"), o.mapping);
+  load_stage(node.child("ba"), o.ba);
+  node.read("first_keyframe_mapping_iterations", o.first_keyframe_mapping_iterations, {0, 100000});
+  node.read("rd_loss", o.rd_loss);
+  node.read("ra_weight", o.ra_weight, {0.0, 1e6});
+  node.read("rd_weight", o.rd_weight, {0.0, 1e6});
+  node.read("l1_weight", o.l1_weight, {0.0, 1e6});
+  node.read("ssim_weight", o.ssim_weight, {0.0, 1e6});
+  node.read("ssim_window", o.ssim_window, {3, 31});
+  node.read("compression_floor", o.compression_floor, {1e-9, 1.0});
+  node.read("reference_percentile", o.reference_percentile, {1.0, 100.0});
+  node.read("skip_near_range_bins", o.skip_near_range_bins, {0, 100000});
+  node.read("scale_regulariser_weight", o.scale_regulariser_weight, {0.0, 1e9});
+  node.read("scale_regulariser_max_m", o.scale_regulariser_max_m, {1e-4, 100.0});
+  node.read("max_image_range_m", o.max_image_range_m, {0.0, 10000.0});
+  node.read("max_render_range_m", o.max_render_range_m, {0.0, 10000.0});
+  node.read("elevation_gain_sigma_sin", o.elevation_gain_sigma_sin, {0.0, 10.0});
+  node.read("rd_kernel_sigma_bins", o.rd_kernel_sigma_bins, {0.0, 100.0});
+  node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
+  node.read("rd_gain", o.rd_gain, {0.0, 1e12});
+  node.read_choice("psf_range_window", o.psf_range_window, {"none", "hann", "hamming", "blackman"});
+  node.read_choice("psf_angle_window", o.psf_angle_window, {"none", "hann", "hamming", "blackman"});
+  node.read_choice("psf_doppler_window", o.psf_doppler_window, {"none", "hann", "hamming", "blackman"});
+  node.read("pose_dof", o.pose_dof, {3, 6});
+  node.read("lr_pose_translation", o.lr_pose_translation, {0.0, 10.0});
+  node.read("lr_pose_rotation", o.lr_pose_rotation, {0.0, 10.0});
+  node.read("lr_means", o.lr_means, {0.0, 10.0});
+  node.read("lr_rotations", o.lr_rotations, {0.0, 10.0});
+  node.read("lr_log_scales", o.lr_log_scales, {0.0, 10.0});
+  node.read("lr_log_returns", o.lr_log_returns, {0.0, 10.0});
+  node.read("max_gaussians", o.max_gaussians, {1, 100'000'000});
+  node.read("init_scale_m", o.init_scale_m, {1e-4, 10.0});
+  node.read("init_min_spacing_m", o.init_min_spacing_m, {0.0, 10.0});
+  node.read("static_doppler_tolerance_mps", o.static_doppler_tolerance_mps, {0.0, 100.0});
+  node.read("min_point_snr_db", o.min_point_snr_db, {-100.0, 200.0});
+  node.finish();
+  validate(o, node.file());
+  return o;
+}
+
+void validate(const BackendOptions& o, const std::string& file) {
+  auto fail = [&](const std::string& key, const std::string& what) { throw ConfigError(file, "backend." + key, what); };
+  if (!finite(o.body_T_radar)) fail("body_T_radar", "a finite transform");
+  if (o.pose_dof != 3 && o.pose_dof != 6) fail("pose_dof", "3 or 6");
+  if (o.ba_window != "radius" && o.ba_window != "sliding") fail("ba_window", "one of 'radius' 'sliding'");
+  if (o.mapping_keyframes < 1) fail("mapping_keyframes", "an integer >= 1");
+  if (o.ba_sliding_keyframes < 1) fail("ba_sliding_keyframes", "an integer >= 1");
+  if (o.ba_max_keyframes < 1) fail("ba_max_keyframes", "an integer >= 1");
+  if (!(o.ba_radius_m >= 0)) fail("ba_radius_m", "a number >= 0");
+  if (o.ssim_window < 3 || o.ssim_window % 2 == 0) fail("ssim_window", "an odd integer >= 3");
+  if (!(o.compression_floor > 0)) fail("compression_floor", "a number > 0");
+  if (!(o.reference_percentile > 0 && o.reference_percentile <= 100)) fail("reference_percentile", "a number in (0, 100]");
+  if (!(o.init_scale_m > 0)) fail("init_scale_m", "a number > 0");
+  if (o.max_gaussians < 1) fail("max_gaussians", "an integer >= 1");
+  if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
+  for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
+    const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";
+    if (s->max_iterations < 0) fail(name + ".max_iterations", "an integer >= 0");
+    if (!(s->time_budget_s >= 0)) fail(name + ".time_budget_s", "a number >= 0");
+    if (!(s->lr_final_factor > 0 && s->lr_final_factor <= 1)) fail(name + ".lr_final_factor", "a number in (0, 1]");
+    if (s->convergence_patience < 1) fail(name + ".convergence_patience", "an integer >= 1");
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+// objective
+
+template <typename Scalar>
+KeyframeObjective<Scalar>::KeyframeObjective(const RadarImageGrid& grid, const RaRenderOptions& ra_options,
+                                             const RdRenderOptions& rd_options, const ImageLossOptions& ra_loss,
+                                             const ImageLossOptions& rd_loss)
+    : ra_renderer_(grid, ra_options), rd_renderer_(grid, rd_options), ra_loss_(ra_loss), rd_loss_(rd_loss) {}
+
+template <typename Scalar>
+typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
+    const GaussianScene& scene, std::span<const std::uint32_t> gaussians, const Eigen::Isometry3d& radar_T_world,
+    const Eigen::Vector3d* velocity, const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight,
+    double rd_weight, SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity) {
+  Result r;
+  const bool backward = scene_gradients != nullptr || grad_pose != nullptr;
+  ra_renderer_.render(scene, radar_T_world, gaussians, ra_);
+  r.ra_loss = ra_loss_.evaluate(ra_, ra_target, backward ? &grad_ra_ : nullptr);
+  if (backward) grad_ra_ *= static_cast<Scalar>(ra_weight);
+  const bool use_rd = velocity != nullptr && rd_weight > 0;
+  if (use_rd) {
+    rd_renderer_.render(ra_, *velocity, rd_);
+    const bool rd_backward = backward || grad_velocity != nullptr;
+    r.rd_loss = rd_loss_.evaluate(rd_, rd_target, rd_backward ? &grad_rd_ : nullptr);
+    if (rd_backward) {
+      grad_rd_ *= static_cast<Scalar>(rd_weight);
+      if (!backward) grad_ra_.setZero(ra_.rows(), ra_.cols());
+      rd_renderer_.backward(ra_, *velocity, grad_rd_, &grad_ra_, grad_velocity);
+    }
+  }
+  if (backward) ra_renderer_.backward(scene, radar_T_world, gaussians, grad_ra_, scene_gradients, grad_pose);
+  return r;
+}
+
+template class KeyframeObjective<float>;
+template class KeyframeObjective<double>;
+
+RadarVelocity keyframe_velocity(const Eigen::Isometry3d& radar_T_world_current,
+                                const Eigen::Isometry3d& radar_T_world_previous, double dt,
+                                const Eigen::Vector3d& correction) {
+  RadarVelocity v = radar_velocity_from_poses(radar_T_world_current, radar_T_world_previous, dt);
+  v.velocity += correction;
+  return v;
+}
+
+// ------------------------------------------------------------------------------------------------
+// backend
+
+Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const BackendOptions& options)
+    : options_(options) {
+  validate(options_);
+  grid_ = RadarImageGrid::from_config(config, options_.psf_range_window, options_.psf_angle_window);
+  grid_.validate();
+  auto close = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::max(1.0, std::abs(b)); };
+  if (grids.range_bins != grid_.range_bins || grids.azimuth_bins != grid_.azimuth_bins ||
+      grids.doppler_bins != grid_.doppler_bins || !close(grids.range_bin_m, grid_.range_bin_m) ||
+      !close(grids.velocity_bin_mps, grid_.velocity_bin_mps) ||
+      !close(grids.azimuth_sin_bin, grid_.azimuth_sin_step()))
+    throw std::invalid_argument("splat::Backend: the DSP grids are not those of the radar configuration");
+  dsp_range_bins_ = grid_.range_bins;
+  if (options_.max_image_range_m > 0)
+    grid_.range_bins = std::clamp(static_cast<int>(std::ceil(options_.max_image_range_m / grid_.range_bin_m)), 1,
+                                  grid_.range_bins);
+
+  ra_options_.elevation_gain_sigma_sin = options_.elevation_gain_sigma_sin;
+  rd_options_.kernel_sigma_bins = options_.rd_kernel_sigma_bins > 0
+                                      ? options_.rd_kernel_sigma_bins
+                                      : window_power_fwhm_bins(options_.psf_doppler_window) / 2.355;
+  rd_options_.window_bins = options_.rd_window_bins;
+  for (ImageLossOptions* l : {&ra_loss_options_, &rd_loss_options_}) {
+    l->l1_weight = options_.l1_weight;
+    l->ssim_weight = options_.ssim_weight;
+    l->ssim.window = options_.ssim_window;
+    l->compression.floor = options_.compression_floor;
+    l->skip_near_range_bins = options_.skip_near_range_bins;
+  }
+  SceneOptions so;
+  so.max_gaussians = static_cast<std::size_t>(options_.max_gaussians);
+  scene_ = GaussianScene(so);
+  SplatAdamOptions ao;
+  ao.lr_means = options_.lr_means;
+  ao.lr_rotations = options_.lr_rotations;
+  ao.lr_log_scales = options_.lr_log_scales;
+  ao.lr_log_returns = options_.lr_log_returns;
+  scene_adam_ = SplatAdam(ao, 3);
+}
+
+Backend::~Backend() = default;
+
+gtsam::Pose3 Backend::map_T_odom() const { return to_pose3(map_T_odom_); }
+
+gtsam::Pose3 Backend::corrected(const gtsam::Pose3& odom_T_body) const {
+  return to_pose3(map_T_odom_ * to_isometry(odom_T_body));
+}
+
+const BackendStats& Backend::stats() const { return stats_; }
+
+std::vector<std::pair<double, gtsam::Pose3>> Backend::keyframe_poses() const {
+  std::vector<std::pair<double, gtsam::Pose3>> out;
+  out.reserve(keyframes_.size());
+  const Eigen::Isometry3d radar_T_body = options_.body_T_radar.inverse();
+  for (const Keyframe& k : keyframes_) out.emplace_back(k.t, to_pose3(k.world_T_radar * radar_T_body));
+  return out;
+}
+
+bool Backend::accept(const BackendFrame& f) const {
+  if (!std::isfinite(f.t) || (have_previous_ && !(f.t > previous_t_))) return false;
+  if (f.dsp == nullptr) return false;
+  const auto nr = static_cast<std::size_t>(dsp_range_bins_);
+  if (f.dsp->ra.size() != nr * static_cast<std::size_t>(grid_.azimuth_bins)) return false;
+  if (f.dsp->rd.size() != nr * static_cast<std::size_t>(grid_.doppler_bins)) return false;
+  if (!f.odom_T_body.matrix().allFinite()) return false;
+  auto all_finite = [](std::span<const float> s) {
+    return std::all_of(s.begin(), s.end(), [](float v) { return std::isfinite(v); });
+  };
+  return all_finite(f.dsp->ra) && all_finite(f.dsp->rd);
+}
+
+bool Backend::is_keyframe(double t, const Eigen::Isometry3d& odom_T_body) const {
+  if (keyframes_.empty()) return true;
+  const Keyframe& last = keyframes_.back();
+  const Eigen::Isometry3d delta = last.odom_T_body.inverse() * odom_T_body;
+  const double angle = Eigen::AngleAxisd(delta.linear()).angle();
+  return delta.translation().norm() >= options_.keyframe_distance_m || angle >= options_.keyframe_angle_deg * kDeg ||
+         t - last.t >= options_.keyframe_time_s;
+}
+
+bool Backend::add_frame(const BackendFrame& frame) {
+  ++stats_.frames;
+  if (!accept(frame)) {
+    ++stats_.rejected_frames;
+    return false;
+  }
+  const Eigen::Isometry3d odom_T_body = to_isometry(frame.odom_T_body);
+  // The frontend's radar velocity at this frame (radar frame), from this frame and the previous.
+  Eigen::Vector3d v_odom = Eigen::Vector3d::Zero();
+  const Eigen::Isometry3d odom_T_radar = odom_T_body * options_.body_T_radar;
+  if (have_previous_)
+    v_odom = radar_velocity_from_poses(odom_T_radar.inverse(), (previous_odom_T_body_ * options_.body_T_radar).inverse(),
+                                       frame.t - previous_t_)
+                 .velocity;
+  // A keyframe needs the frontend's velocity at its frame (RD rendering, the static-point test),
+  // hence a predecessor: the very first frame only starts it.
+  const bool keyframe = have_previous_ && is_keyframe(frame.t, odom_T_body);
+  have_previous_ = true;
+  previous_t_ = frame.t;
+  previous_odom_T_body_ = odom_T_body;
+  if (!keyframe) return false;
+
+  Keyframe kf;
+  kf.t = frame.t;
+  kf.odom_T_body = odom_T_body;
+  kf.world_T_radar = map_T_odom_ * odom_T_radar;
+  // Row-major [range][column]: the first range_bins rows are the cut grid's image.
+  kf.ra = Eigen::Map<const Image<float>>(frame.dsp->ra.data(), grid_.range_bins, grid_.azimuth_bins);
+  kf.rd = Eigen::Map<const Image<float>>(frame.dsp->rd.data(), grid_.range_bins, grid_.doppler_bins);
+  const bool first = keyframes_.empty();
+  if (first) {
+    kf.velocity_correction = v_odom;
+    start_map(kf);
+  } else {
+    const Keyframe& prev = keyframes_.back();
+    const Eigen::Vector3d v_pair =
+        radar_velocity_from_poses(odom_T_radar.inverse(), (prev.odom_T_body * options_.body_T_radar).inverse(),
+                                  kf.t - prev.t)
+            .velocity;
+    kf.velocity_correction = v_odom - v_pair;
+  }
+  objective_->ra_loss().prepare_measurement(kf.ra, kf.ra_target);
+  objective_->rd_loss().prepare_measurement(kf.rd, kf.rd_target);
+  keyframes_.push_back(std::move(kf));
+  ++stats_.keyframes;
+  const std::size_t k = keyframes_.size() - 1;
+
+  if (first) {
+    add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
+    // The first map: one view, a fixed number of iterations (no budget: everything after
+    // builds on it, and one view is cheap).
+    StageOptions first_mapping = options_.mapping;
+    first_mapping.time_budget_s = 0;
+    run_stage({k}, {}, true, false, first_mapping, options_.first_keyframe_mapping_iterations, stats_.mapping);
+  } else {
+    // 1. pose refinement of the newest keyframe (RA + RD), the map fixed.
+    run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
+    // New Gaussians from this keyframe's points, placed with the refined pose.
+    add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
+    // 2. mapping over the last N_map keyframes (RA only), poses fixed.
+    std::vector<std::size_t> mapping_views;
+    const std::size_t n_map = static_cast<std::size_t>(options_.mapping_keyframes);
+    for (std::size_t i = keyframes_.size() > n_map ? keyframes_.size() - n_map : 0; i < keyframes_.size(); ++i)
+      mapping_views.push_back(i);
+    run_stage(mapping_views, {}, true, false, options_.mapping, options_.mapping.max_iterations, stats_.mapping);
+    // 3. BA over the window: poses (all but the window's oldest, the gauge) and Gaussians.
+    const std::vector<std::size_t> window = ba_window();
+    std::vector<std::size_t> ba_poses;
+    for (std::size_t i = 1; i < window.size(); ++i)
+      if (window[i] != 0) ba_poses.push_back(window[i]);
+    run_stage(window, ba_poses, true, true, options_.ba, options_.ba.max_iterations, stats_.ba);
+  }
+  cleanup_scene();
+  update_correction();
+  stats_.gaussians = scene_.size();
+  return true;
+}
+
+void Backend::start_map(Keyframe& first) {
+  ra_loss_options_.compression.reference =
+      percentile_reference({first.ra.data(), static_cast<std::size_t>(first.ra.size())}, options_.reference_percentile);
+  rd_loss_options_.compression.reference =
+      percentile_reference({first.rd.data(), static_cast<std::size_t>(first.rd.size())}, options_.reference_percentile);
+  // RD / RA scale: the DSP's RD is the channel sum before beamforming and its RA the beamformed
+  // power summed over Doppler; their ratio depends on the array and the windows. Calibrated on
+  // the first keyframe: the RD that the renderer makes from the MEASURED RA at the frontend's
+  // velocity against the measured RD.
+  double gain = options_.rd_gain;
+  if (!(gain > 0)) {
+    RdRenderOptions unit = rd_options_;
+    unit.gain = 1.0;
+    RdRenderer<float> rd(grid_, unit);
+    Image<float> rendered;
+    rd.render(first.ra, first.velocity_correction, rendered);
+    const double num = first.rd.template cast<double>().sum();
+    const double den = rendered.template cast<double>().sum();
+    gain = (num > 0 && den > 0 && std::isfinite(num / den)) ? num / den : 1.0;
+  }
+  rd_options_.gain = gain;
+  stats_.rd_gain = gain;
+  objective_ =
+      std::make_unique<KeyframeObjective<float>>(grid_, ra_options_, rd_options_, ra_loss_options_, rd_loss_options_);
+}
+
+void Backend::add_gaussians(const Keyframe& kf, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity) {
+  const double spacing = options_.init_min_spacing_m;
+  std::vector<Eigen::Vector3d> added;
+  std::vector<std::uint32_t> near;
+  scene_.update_index();
+  const double log_scale = std::log(options_.init_scale_m);
+  std::vector<std::pair<Eigen::Vector3d, double>> accepted;
+  for (const rsrio::DspPoint& p : points) {
+    if (p.snr_db < options_.min_point_snr_db) continue;
+    const Eigen::Vector3d x(p.x, p.y, p.z);
+    const double r = x.norm();
+    if (!x.allFinite() || !(r > 0)) continue;
+    // A static point seen from a radar moving with v has range rate -u . v.
+    const double expected = -x.dot(velocity) / r;
+    if (std::abs(p.doppler_mps - expected) > options_.static_doppler_tolerance_mps) {
+      ++stats_.points_rejected_dynamic;
+      continue;
+    }
+    const Eigen::Vector3d w = kf.world_T_radar * x;
+    if (spacing > 0) {
+      scene_.query_radius(w, spacing, near);
+      if (!near.empty()) continue;
+      bool close = false;
+      for (const auto& a : accepted) close = close || (a.first - w).norm() < spacing;
+      if (close) continue;
+    }
+    // Initial return: the measured RA power at the point's cell (the renderer draws a point
+    // scatterer with its peak equal to the return ratio).
+    const int kr = std::clamp(static_cast<int>(std::lround(p.range_bin)), 0, grid_.range_bins - 1);
+    const int ka = std::clamp(static_cast<int>(std::lround(p.azimuth_bin)), 0, grid_.azimuth_bins - 1);
+    double rho = kf.ra(kr, ka);
+    if (!(rho > 0)) rho = p.power;
+    if (!(rho > 0) || !std::isfinite(rho)) continue;
+    accepted.emplace_back(w, rho);
+  }
+  for (const auto& [w, rho] : accepted) {
+    if (scene_.add(w, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(log_scale), std::log(rho)))
+      ++stats_.gaussians_added;
+  }
+  if (scene_.size() > static_cast<std::size_t>(options_.max_gaussians))
+    scene_adam_.remap_scene(scene_.enforce_cap(kf.world_T_radar.translation()));
+}
+
+std::vector<std::size_t> Backend::ba_window() const {
+  const std::size_t n = keyframes_.size() - 1;
+  std::vector<std::size_t> w;
+  if (options_.ba_window == "sliding") {
+    const auto count = static_cast<std::size_t>(options_.ba_sliding_keyframes);
+    for (std::size_t i = keyframes_.size() > count ? keyframes_.size() - count : 0; i <= n; ++i) w.push_back(i);
+  } else {
+    const Eigen::Vector3d c = keyframes_[n].world_T_radar.translation();
+    for (std::size_t i = 0; i <= n; ++i)
+      if ((keyframes_[i].world_T_radar.translation() - c).norm() <= options_.ba_radius_m) w.push_back(i);
+  }
+  const auto cap = static_cast<std::size_t>(options_.ba_max_keyframes);
+  if (w.size() > cap) w.erase(w.begin(), w.end() - static_cast<std::ptrdiff_t>(cap));
+  return w;
+}
+
+Eigen::Vector3d Backend::velocity_of(std::size_t k, RadarVelocity* jacobians) const {
+  const Keyframe& kf = keyframes_[k];
+  if (k == 0) {
+    if (jacobians != nullptr) *jacobians = RadarVelocity{kf.velocity_correction, Matrix36d::Zero(), Matrix36d::Zero()};
+    return kf.velocity_correction;
+  }
+  const Keyframe& prev = keyframes_[k - 1];
+  const RadarVelocity v = keyframe_velocity(kf.world_T_radar.inverse(), prev.world_T_radar.inverse(), kf.t - prev.t,
+                                            kf.velocity_correction);
+  if (jacobians != nullptr) *jacobians = v;
+  return v.velocity;
+}
+
+void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
+                        bool use_rd, const StageOptions& stage, int max_iterations, StageStats& st) {
+  const auto start = std::chrono::steady_clock::now();
+  ++st.runs;
+  use_rd = use_rd && options_.rd_loss && options_.rd_weight > 0;
+  if (views.empty() || max_iterations <= 0 || (!optimise_scene && poses.empty()) || scene_.empty()) return;
+  const std::size_t stride = static_cast<std::size_t>(options_.pose_dof);
+  const bool planar = stride == 3;
+
+  std::vector<int> pose_row(keyframes_.size(), -1);
+  for (std::size_t r = 0; r < poses.size(); ++r) pose_row[poses[r]] = static_cast<int>(r);
+  SplatAdamOptions pose_adam_options;
+  pose_adam_options.lr_pose_translation = options_.lr_pose_translation;
+  pose_adam_options.lr_pose_rotation = options_.lr_pose_rotation;
+  SplatAdam pose_adam(pose_adam_options, stride);
+  std::vector<double> params(stride * poses.size(), 0.0), grads(params.size(), 0.0);
+  std::vector<Vector6d> grad_left(poses.size());
+  auto load_params = [&] {
+    if (!planar) return;
+    for (std::size_t r = 0; r < poses.size(); ++r) {
+      const PlanarPose p = PlanarPose::from_world_T_radar(keyframes_[poses[r]].world_T_radar);
+      params[3 * r] = p.x;
+      params[3 * r + 1] = p.y;
+      params[3 * r + 2] = p.yaw;
+    }
+  };
+  load_params();
+
+  // The Gaussians each view draws: those within the render range of its radar, listed once per
+  // stage (the means move by centimetres within a stage).
+  const double radius =
+      options_.max_render_range_m > 0 ? options_.max_render_range_m : grid_.range_bins * grid_.range_bin_m;
+  scene_.update_index();
+  std::vector<std::vector<std::uint32_t>> lists(views.size());
+  std::vector<std::uint32_t> rows;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    scene_.query_radius(keyframes_[views[i]].world_T_radar.translation(), radius, lists[i]);
+    rows.insert(rows.end(), lists[i].begin(), lists[i].end());
+  }
+  std::sort(rows.begin(), rows.end());
+  rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+  if (rows.empty()) return;
+
+  ScaleRegulariserOptions reg;
+  reg.max_scale_m = options_.scale_regulariser_max_m;
+  reg.weight = options_.scale_regulariser_weight;
+  const SplatAdamOptions& sa = scene_adam_.options();
+
+  double previous_loss = std::numeric_limits<double>::quiet_NaN();
+  int calm = 0;
+  bool first_loss = true;
+  for (int it = 0; it < max_iterations; ++it) {
+    if (stage.time_budget_s > 0 && seconds_since(start) > stage.time_budget_s) {
+      ++st.budget_stops;
+      break;
+    }
+    ++st.iterations;
+    const double decay = std::pow(stage.lr_final_factor, static_cast<double>(it) / std::max(1, max_iterations - 1));
+    pose_adam.poses.set_learning_rate(decay);
+    if (optimise_scene) {
+      scene_adam_.means.set_learning_rate(sa.lr_means * decay);
+      scene_adam_.rotations.set_learning_rate(sa.lr_rotations * decay);
+      scene_adam_.log_scales.set_learning_rate(sa.lr_log_scales * decay);
+      scene_adam_.log_returns.set_learning_rate(sa.lr_log_returns * decay);
+      gradients_.reset(scene_.size());
+    }
+    for (Vector6d& g : grad_left) g.setZero();
+    double loss = 0;
+    for (std::size_t i = 0; i < views.size(); ++i) {
+      const std::size_t k = views[i];
+      Keyframe& kf = keyframes_[k];
+      RadarVelocity vj;
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      if (use_rd) v = velocity_of(k, &vj);
+      Vector6d g_pose = Vector6d::Zero();
+      Eigen::Vector3d g_v = Eigen::Vector3d::Zero();
+      const auto r = objective_->evaluate(scene_, lists[i], kf.world_T_radar.inverse(), use_rd ? &v : nullptr,
+                                          kf.ra_target, kf.rd_target, options_.ra_weight,
+                                          use_rd ? options_.rd_weight : 0.0, optimise_scene ? &gradients_ : nullptr,
+                                          pose_row[k] >= 0 ? &g_pose : nullptr, use_rd ? &g_v : nullptr);
+      loss += options_.ra_weight * r.ra_loss + (use_rd ? options_.rd_weight * r.rd_loss : 0.0);
+      if (pose_row[k] >= 0) grad_left[static_cast<std::size_t>(pose_row[k])] += g_pose + vj.d_current.transpose() * g_v;
+      if (use_rd && k > 0 && pose_row[k - 1] >= 0)
+        grad_left[static_cast<std::size_t>(pose_row[k - 1])] += vj.d_previous.transpose() * g_v;
+    }
+    if (optimise_scene) loss += scale_regulariser(scene_, rows, reg, &gradients_);
+    for (std::size_t r = 0; r < poses.size(); ++r) {
+      if (planar) {
+        const Eigen::Vector3d g =
+            planar_gradient(PlanarPose::from_world_T_radar(keyframes_[poses[r]].world_T_radar), grad_left[r]);
+        for (int c = 0; c < 3; ++c) grads[3 * r + c] = g[c];
+      } else {
+        for (int c = 0; c < 6; ++c) grads[6 * r + c] = grad_left[r][c];
+      }
+    }
+    const bool ok = std::isfinite(loss) &&
+                    std::all_of(grads.begin(), grads.end(), [](double g) { return std::isfinite(g); }) &&
+                    (!optimise_scene || gradients_.all_finite());
+    if (!ok) {
+      ++stats_.nan_guard_hits;
+      continue;
+    }
+    if (first_loss) {
+      st.last_initial_loss = loss;
+      first_loss = false;
+    }
+    st.last_final_loss = loss;
+    if (!poses.empty()) {
+      SplatAdam::Step s;
+      s.poses = params;
+      s.pose_gradients = grads;
+      pose_adam.step(s);
+      for (std::size_t r = 0; r < poses.size(); ++r) {
+        Keyframe& kf = keyframes_[poses[r]];
+        Eigen::Isometry3d updated;
+        if (planar) {
+          PlanarPose p = PlanarPose::from_world_T_radar(kf.world_T_radar);
+          p.x = params[3 * r];
+          p.y = params[3 * r + 1];
+          p.yaw = params[3 * r + 2];
+          updated = p.world_T_radar();
+        } else {
+          Eigen::Isometry3d radar_T_world = kf.world_T_radar.inverse();
+          apply_left_increment(radar_T_world, Eigen::Map<const Vector6d>(params.data() + 6 * r));
+          updated = radar_T_world.inverse();
+          std::fill(params.begin() + static_cast<std::ptrdiff_t>(6 * r),
+                    params.begin() + static_cast<std::ptrdiff_t>(6 * r + 6), 0.0);
+        }
+        if (finite(updated)) {
+          kf.world_T_radar = updated;
+        } else {
+          ++stats_.nan_guard_hits;
+          load_params();
+        }
+      }
+    }
+    if (optimise_scene) {
+      SplatAdam::Step s;
+      s.scene = &scene_;
+      s.scene_gradients = &gradients_;
+      s.gaussians = rows;
+      if (!scene_adam_.step(s)) ++stats_.nan_guard_hits;
+    }
+    // Convergence: the loss moved by less than convergence_rel for `patience` iterations.
+    if (std::isfinite(previous_loss) && std::abs(loss - previous_loss) <= stage.convergence_rel * std::abs(previous_loss)) {
+      if (++calm >= stage.convergence_patience) {
+        ++st.converged;
+        break;
+      }
+    } else {
+      calm = 0;
+    }
+    previous_loss = loss;
+  }
+  if (optimise_scene) {
+    const std::uint64_t before = scene_.removed_non_finite();
+    scene_adam_.remap_scene(scene_.sanitize());
+    stats_.nan_guard_hits += scene_.removed_non_finite() - before;
+  }
+  const double elapsed = seconds_since(start);
+  st.last_s = elapsed;
+  st.total_s += elapsed;
+  st.max_s = std::max(st.max_s, elapsed);
+}
+
+void Backend::cleanup_scene() {
+  const std::uint64_t before = scene_.removed_non_finite();
+  scene_adam_.remap_scene(scene_.sanitize());
+  stats_.nan_guard_hits += scene_.removed_non_finite() - before;
+  scene_adam_.remap_scene(scene_.prune());
+}
+
+void Backend::update_correction() {
+  const Keyframe& newest = keyframes_.back();
+  const Eigen::Isometry3d map_T_body = newest.world_T_radar * options_.body_T_radar.inverse();
+  map_T_odom_ = map_T_body * newest.odom_T_body.inverse();
+}
+
+KeyframeRender Backend::render_keyframe(std::size_t k) {
+  if (k >= keyframes_.size() || !objective_) throw std::out_of_range("Backend::render_keyframe: no such keyframe");
+  const Keyframe& kf = keyframes_[k];
+  KeyframeRender out;
+  out.ra_measured = kf.ra;
+  out.rd_measured = kf.rd;
+  const double radius =
+      options_.max_render_range_m > 0 ? options_.max_render_range_m : grid_.range_bins * grid_.range_bin_m;
+  std::vector<std::uint32_t> list;
+  scene_.update_index();
+  scene_.query_radius(kf.world_T_radar.translation(), radius, list);
+  objective_->ra_renderer().render(scene_, kf.world_T_radar.inverse(), list, out.ra_rendered);
+  out.velocity = velocity_of(k, nullptr);
+  objective_->rd_renderer().render(out.ra_rendered, out.velocity, out.rd_rendered);
+  return out;
+}
+
+}  // namespace rsrio::splat
