@@ -36,6 +36,7 @@
 #include "rsrio/eval/trajectory.hpp"
 #include "rsrio/recording/recording.hpp"
 #include "rsrio/rio/odometry.hpp"
+#include "rsrio/splat/backend.hpp"
 
 namespace {
 
@@ -103,6 +104,30 @@ class NoBackend final : public Backend {
   }
 };
 
+// RadarSplat++ bundle adjustment (splat/backend.hpp): made at the first frame, when the radar's
+// DSP grids are known; takes every frame with a frontend state and returns the corrected radar pose.
+class BaBackend final : public Backend {
+ public:
+  BaBackend(const std::optional<rsrio::rio::Odometry>& odometry, rsrio::splat::BackendOptions options)
+      : odometry_(odometry), options_(std::move(options)) {}
+  gtsam::Pose3 process(const rsrio::rio::FrameInfo& frame, const rsrio::AdcCube&) override {
+    const auto& dsp = odometry_->dsp();
+    if (!backend_) backend_.emplace(odometry_->radar(), dsp.grids(), options_);
+    rsrio::splat::BackendFrame f;
+    f.t = frame.t;
+    f.odom_T_body = frame.state->world_T_body;
+    f.dsp = &dsp.result();  // this frame's: add_radar_frame just processed it
+    backend_->add_frame(f);
+    return backend_->corrected(frame.state->world_T_body) * odometry_->options().frontend.body_T_radar;
+  }
+  const rsrio::splat::Backend* backend() const { return backend_ ? &*backend_ : nullptr; }
+
+ private:
+  const std::optional<rsrio::rio::Odometry>& odometry_;
+  rsrio::splat::BackendOptions options_;
+  std::optional<rsrio::splat::Backend> backend_;
+};
+
 struct PendingFrame {
   double t_stamp = 0;
   rsrio_msgs::msg::RadarFrame msg;
@@ -124,8 +149,11 @@ int main(int argc, char** argv) {
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   rsrio::rio::OdometryOptions options;
-  if (auto rc = rsrio::load_program_config(cli, kProgram,
-                                           [&](rsrio::OptionsNode& root) { options = rsrio::rio::load_odometry_options(root); }))
+  rsrio::splat::BackendOptions backend_options;
+  if (auto rc = rsrio::load_program_config(cli, kProgram, [&](rsrio::OptionsNode& root) {
+        options = rsrio::rio::load_odometry_options(root);
+        if (root.has("backend")) backend_options = rsrio::splat::load_backend_options(root.child("backend"));
+      }))
     return *rc;
   if (input.empty() || out_dir.empty()) {
     std::cerr << kProgram << ": error: --input and --out are required\n(see " << kProgram << " --help)\n";
@@ -135,13 +163,11 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
     return rsrio::kExitUsage;
   }
-  if (backend_name == "ba") {
-    std::cerr << kProgram
-              << ": error: --backend ba: backend not available in this build (the bundle-adjustment backend "
-                 "is not wired in yet); use --backend none\n";
-    return rsrio::kExitUsage;
-  }
-  std::unique_ptr<Backend> backend = std::make_unique<NoBackend>();
+  // The backend renders on the DSP's grids with the DSP's point spread, from the frontend's extrinsic.
+  backend_options.psf_range_window = options.dsp.range_window;
+  backend_options.psf_doppler_window = options.dsp.doppler_window;
+  backend_options.psf_angle_window = options.dsp.angle_window;
+  backend_options.body_T_radar = Eigen::Isometry3d(options.frontend.body_T_radar.matrix());
   {
     std::ostringstream s;
     rsrio::rio::print(s, options);
@@ -154,6 +180,9 @@ int main(int argc, char** argv) {
     rsrio::RecordedMessage m;
 
     std::optional<rsrio::rio::Odometry> odometry;
+    std::unique_ptr<Backend> backend;
+    if (backend_name == "ba") backend = std::make_unique<BaBackend>(odometry, backend_options);
+    else backend = std::make_unique<NoBackend>();
     std::optional<rsrio_msgs::msg::RadarConfig> config_msg;
     rsrio::AdcCube cube;
     std::vector<rsrio::rio::ImuSample> imu_before_radar;  // until the first frame makes the odometry

@@ -47,7 +47,15 @@ n=$(grep -c . "$tmp/cut/frontend.tum")
 [ "$n" -gt 10 ] && [ "$n" -lt 63 ] && ok "truncated: $n poses" || bad "truncated: $n poses"
 
 # bad usage and bad options
-check "backend ba" 2 "backend not available in this build" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba
+# the BA backend wired in: few keyframes (a fast test; the backend's accuracy is splat's tests')
+cp "$tmp/tiny.yaml" "$tmp/tiny_ba.yaml"
+printf 'backend:\n  keyframe_distance_m: 1.5\n  keyframe_angle_deg: 90.0\n  keyframe_time_s: 10.0\n  first_keyframe_mapping_iterations: 10\n  max_image_range_m: 6.0\n' >> "$tmp/tiny_ba.yaml"
+check "backend ba" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/ba" --config "$tmp/tiny_ba.yaml" --backend ba
+[ "$(grep -c . "$tmp/ba/estimate.tum")" = 63 ] && ok "ba: one pose per frame" || bad "ba: estimate.tum has $(grep -c . "$tmp/ba/estimate.tum") lines"
+cmp -s "$tmp/ba/frontend.tum" "$tmp/ba/estimate.tum" && bad "ba: the backend changed no pose" || ok "ba: the backend corrects poses"
+out=$("$eval" --gt "$tmp/ba/ground_truth.tum" --est "$tmp/ba/estimate.tum" 2>&1)
+ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
+awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.1) }' && ok "ba: APE $ape m < 0.1 m" || { bad "ba: APE '$ape' m"; echo "$out"; }
 check "backend unknown" 2 "--backend" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend foo
 check "no input" 2 "--input and --out are required" "$replay" --out "$tmp/x"
 printf 'frontend:\n  window_state: 5\n' > "$tmp/typo.yaml"
