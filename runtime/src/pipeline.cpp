@@ -129,6 +129,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 
   RtThread capture_thread, rio_thread, publisher_thread;
   std::vector<double> latencies_ms;  // publisher thread only
+  std::uint64_t status_received = 0, status_damaged = 0;  // at the last status (publisher thread)
 
   Impl(const DaemonOptions& o, const RadarConfig& r, const rio::OdometryOptions& s, DdsParticipant& d)
       : options(o), radar(r), stage_options(s), dds(d),
@@ -421,6 +422,14 @@ struct Pipeline::Impl : fdds::DataReaderListener {
     st.latency_p99_ms(static_cast<float>(percentile(latencies_ms, 0.99)));
     std::string health;
     if (snap.radar_state != "streaming" && snap.radar_state != "finished") health += "radar " + snap.radar_state + "; ";
+    // Frames arriving but damaged (packet loss) are as bad as no frames: say so.
+    const std::uint64_t received = frames_received.load(), damaged = frames_damaged.load();
+    const std::uint64_t new_frames = received - status_received, new_damaged = damaged - status_damaged;
+    status_received = received;
+    status_damaged = damaged;
+    if (new_frames > 0 && 2 * new_damaged > new_frames)
+      health += std::to_string(new_damaged) + " of " + std::to_string(new_frames) +
+                " frames damaged since the last status (packet loss); ";
     if (snap.imu_state != "ok") health += "imu " + snap.imu_state + "; ";
     if (processing_errors.load()) health += std::to_string(processing_errors.load()) + " processing errors; ";
     st.level(health.empty() ? 0 : (snap.radar_state.rfind("error", 0) == 0 ? 2 : 1));
