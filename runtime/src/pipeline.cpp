@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <fastdds/dds/subscriber/DataReader.hpp>
+#include <tbb/global_control.h>
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
@@ -127,6 +128,10 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   std::function<void(const PoseOutput&)> pose_callback;
   fdds::DataReader* imu_reader = nullptr;
 
+  // GTSAM linearizes on TBB workers; those would be spawned by the RIO thread and inherit its
+  // SCHED_FIFO priority and CPU set. One thread: the RIO thread optimises itself, nothing else
+  // runs at its priority behind its back.
+  tbb::global_control single_threaded_gtsam{tbb::global_control::max_allowed_parallelism, 1};
   RtThread capture_thread, rio_thread, publisher_thread;
   std::vector<double> latencies_ms;  // publisher thread only
   std::uint64_t status_received = 0, status_damaged = 0;  // at the last status (publisher thread)
