@@ -17,8 +17,12 @@ function(rsrio_add_test)
                        DISCOVERY_MODE PRE_TEST)
 endfunction()
 
-# rsrio_add_bench(target): a benchmark program run by the `bench` target.
+# rsrio_add_bench(target): a benchmark program run by the `bench` target. Sanitizer builds leave
+# benchmarks out of `all` (timings under a sanitizer mean nothing; they cost build time).
 function(rsrio_add_bench target)
+  if(RSRIO_SANITIZE)
+    set_target_properties(${target} PROPERTIES EXCLUDE_FROM_ALL ON)
+  endif()
   set_property(GLOBAL APPEND PROPERTY RSRIO_BENCHES ${target})
 endfunction()
 
