@@ -8,7 +8,10 @@ function(rsrio_add_test)
   rsrio_target_options(${T_NAME})
   set(props)
   if(T_LABELS)
-    set(props PROPERTIES LABELS "${T_LABELS}")
+    # Escaped: a plain list would reach set_tests_properties as separate words, and every label
+    # after the first would silently become a property name.
+    string(REPLACE ";" "\\;" labels "${T_LABELS}")
+    set(props PROPERTIES LABELS "${labels}")
   endif()
   if("concurrency" IN_LIST T_LABELS)
     set_property(GLOBAL APPEND PROPERTY RSRIO_CONCURRENCY_TESTS ${T_NAME})

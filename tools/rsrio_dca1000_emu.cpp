@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   std::string scenario_path, loss_text = "0", reorder_text = "0", duplicate_text = "0", stall_text = "0",
                              stall_every_text = "50", seed_text = "1", address_text = "127.0.0.2:4096",
                              host_data_text = "127.0.0.1:4098", threads_text = "2", imu_topic, domain_text = "0",
-                             ground_truth_path;
+                             ground_truth_path, imu_gap_text;
   bool once = false;
   rsrio::Cli cli(kProgram,
                  "Emulate a DCA1000EVM + xWR1843 on loopback: answer the DCA1000 command protocol and, while\n"
@@ -81,6 +81,8 @@ int main(int argc, char** argv) {
   cli.option("--imu-topic", "NAME", "also publish the scenario's IMU on this ROS 2 topic over DDS (e.g. /imu)",
              &imu_topic);
   cli.option("--domain", "ID", "DDS domain for --imu-topic (default 0)", &domain_text);
+  cli.option("--imu-gap", "START:SECONDS", "publish no IMU for SECONDS from START s after the first frame "
+             "(a silent IMU; radar goes on)", &imu_gap_text);
   cli.option("--ground-truth", "FILE", "write the IMU's true pose as a TUM trajectory on the stream's clock",
              &ground_truth_path);
   if (auto rc = cli.parse(argc, argv)) return *rc;
@@ -109,6 +111,15 @@ int main(int argc, char** argv) {
     return usage_error("--imu-topic: expected a ROS 2 topic name starting with '/', got '" + imu_topic + "'");
   if ((!imu_topic.empty() || !ground_truth_path.empty()) && !once)
     return usage_error("--imu-topic and --ground-truth need --once (a repeated scenario would jump back in time)");
+  double imu_gap_start = 0, imu_gap_s = 0;
+  if (!imu_gap_text.empty()) {
+    const auto colon = imu_gap_text.find(':');
+    if (colon == std::string::npos || !parse_double(imu_gap_text.substr(0, colon), imu_gap_start) ||
+        !parse_double(imu_gap_text.substr(colon + 1), imu_gap_s) || imu_gap_start < 0 || imu_gap_s <= 0)
+      return usage_error("--imu-gap: expected START:SECONDS (non-negative start, positive length), got '" +
+                         imu_gap_text + "'");
+    if (imu_topic.empty()) return usage_error("--imu-gap needs --imu-topic");
+  }
   f.stall_ms = static_cast<int>(stall);
   f.stall_every_frames = static_cast<int>(stall_every);
   try {
@@ -219,7 +230,8 @@ int main(int argc, char** argv) {
       const double since = sample.time - t0;  // negative for the samples before frame 0 completes
       std::this_thread::sleep_until(steady0 + std::chrono::nanoseconds(std::llround(std::max(0.0, since) * 1e9)));
       const std::int64_t stamp = w0 + std::llround((since + offset) * 1e9);
-      if (imu_writer) {
+      const bool silent = imu_gap_s > 0 && since >= imu_gap_start && since < imu_gap_start + imu_gap_s;
+      if (imu_writer && !silent) {
         m.header().stamp().sec(static_cast<std::int32_t>(stamp / 1000000000));
         m.header().stamp().nanosec(static_cast<std::uint32_t>(stamp % 1000000000));
         m.angular_velocity().x(sample.angular_velocity.x());

@@ -17,6 +17,7 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "geometry_msgs/msg/PoseStampedPubSubTypes.hpp"
 #include "nav_msgs/msg/OdometryPubSubTypes.hpp"
 #include "rsrio/common/cli.hpp"
 #include "rsrio/common/options.hpp"
@@ -32,10 +33,18 @@ void on_signal(int) { g_stop = true; }
 
 struct Echo : fdds::DataReaderListener {
   std::mutex mutex;
-  std::ofstream tum;
+  std::ofstream tum, pose_tum;
   bool quiet = false;
   bool show_status = false;
   std::atomic<std::uint64_t> odometry{0};
+  std::atomic<std::uint64_t> poses{0};
+
+  static void write_tum(std::ofstream& out, double t, const geometry_msgs::msg::Pose& pose) {
+    const auto& p = pose.position();
+    const auto& q = pose.orientation();
+    out << std::fixed << std::setprecision(9) << t << ' ' << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << q.x()
+        << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << std::endl;  // whole lines for readers
+  }
 
   void on_data_available(fdds::DataReader* reader) override {
     std::lock_guard<std::mutex> lock(mutex);
@@ -47,9 +56,7 @@ struct Echo : fdds::DataReaderListener {
         const double t = o.header().stamp().sec() + 1e-9 * o.header().stamp().nanosec();
         const auto& p = o.pose().pose().position();
         const auto& q = o.pose().pose().orientation();
-        if (tum.is_open())
-          tum << std::fixed << std::setprecision(9) << t << ' ' << p.x() << ' ' << p.y() << ' ' << p.z() << ' ' << q.x()
-              << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << std::endl;  // whole lines for readers
+        if (tum.is_open()) write_tum(tum, t, o.pose().pose());
         if (!quiet) {
           const double yaw = std::atan2(2 * (q.w() * q.z() + q.x() * q.y()), 1 - 2 * (q.y() * q.y() + q.z() * q.z()));
           std::cout << std::fixed << std::setprecision(3) << "odom " << t << "  " << o.header().frame_id() << "->"
@@ -58,6 +65,14 @@ struct Echo : fdds::DataReaderListener {
         }
         odometry.fetch_add(1);
       }
+    } else if (reader->type().get_type_name() == "geometry_msgs::msg::dds_::PoseStamped_") {
+      geometry_msgs::msg::PoseStamped m;
+      while (reader->take_next_sample(&m, &info) == fdds::RETCODE_OK) {
+        if (!info.valid_data) continue;
+        if (pose_tum.is_open())
+          write_tum(pose_tum, m.header().stamp().sec() + 1e-9 * m.header().stamp().nanosec(), m.pose());
+        poses.fetch_add(1);
+      }
     } else {
       rsrio_msgs::msg::Status s;
       while (reader->take_next_sample(&s, &info) == fdds::RETCODE_OK) {
@@ -65,7 +80,13 @@ struct Echo : fdds::DataReaderListener {
         std::cout << "status level " << int(s.level()) << " \"" << s.health() << "\" radar " << s.radar_state()
                   << " imu " << s.imu_state() << " frames " << s.frames_received() << " damaged "
                   << s.frames_damaged() << " dropped " << s.frames_dropped() << " lost packets " << s.packets_lost()
-                  << " latency p50 " << s.latency_p50_ms() << " ms p99 " << s.latency_p99_ms() << " ms\n";
+                  << " latency p50 " << s.latency_p50_ms() << " ms p99 " << s.latency_p99_ms() << " ms";
+        if (s.keyframes() > 0)
+          std::cout << " keyframes " << s.keyframes() << " gaussians " << s.gaussians() << " ba " << s.ba_time_ms()
+                    << " ms";
+        for (const auto& q : s.queues())
+          if (q.dropped() > 0) std::cout << " " << q.name() << "-queue drops " << q.dropped();
+        std::cout << "\n";
       }
     }
     std::cout.flush();
@@ -75,8 +96,8 @@ struct Echo : fdds::DataReaderListener {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string odom_topic = "/rsrio/odom", status_topic = "/rsrio/status", domain = "0", count_s, duration_s = "0",
-              tum_path;
+  std::string odom_topic = "/rsrio/odom", pose_topic = "/rsrio/pose", status_topic = "/rsrio/status", domain = "0",
+              count_s, duration_s = "0", tum_path, pose_tum_path;
   bool quiet = false, status = false, all_interfaces = false;
   rsrio::Cli cli("rsrio-echo", "Print rsriod's odometry and status received over DDS.");
   cli.option("--odom-topic", "NAME", "ROS 2 odometry topic (default /rsrio/odom)", &odom_topic)
@@ -84,7 +105,10 @@ int main(int argc, char** argv) {
       .option("--domain", "ID", "DDS domain (default 0)", &domain)
       .option("--count", "N", "exit 0 after N odometry messages", &count_s)
       .option("--duration", "S", "give up after S seconds (0: run until a signal)", &duration_s)
-      .option("--tum", "FILE", "write the received poses as a TUM trajectory", &tum_path)
+      .option("--pose-topic", "NAME", "ROS 2 PoseStamped topic (default /rsrio/pose)", &pose_topic)
+      .option("--tum", "FILE", "write the received odometry poses as a TUM trajectory", &tum_path)
+      .option("--pose-tum", "FILE", "write the received PoseStamped poses (with the backend: the map-frame pose)",
+              &pose_tum_path)
       .flag("--status", "print the status messages too", &status)
       .flag("--quiet", "print nothing per message", &quiet)
       .flag("--all-interfaces", "DDS on every interface (default: loopback only, as rsriod)", &all_interfaces);
@@ -114,12 +138,23 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
+  if (!pose_tum_path.empty()) {
+    echo.pose_tum.open(pose_tum_path);
+    if (!echo.pose_tum) {
+      std::cerr << "rsrio-echo: error: cannot write " << pose_tum_path << "\n";
+      return 1;
+    }
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   try {
     rsrio::DdsParticipant dds(dds_options);
     dds.make_reader(rsrio::ros_topic_to_dds(odom_topic), fdds::TypeSupport(new nav_msgs::msg::OdometryPubSubType()),
                     rsrio::QosPreset::kOdometry, &echo);
+    if (!pose_tum_path.empty())
+      dds.make_reader(rsrio::ros_topic_to_dds(pose_topic),
+                      fdds::TypeSupport(new geometry_msgs::msg::PoseStampedPubSubType()), rsrio::QosPreset::kOdometry,
+                      &echo);
     dds.make_reader(rsrio::ros_topic_to_dds(status_topic), fdds::TypeSupport(new rsrio_msgs::msg::StatusPubSubType()),
                     rsrio::QosPreset::kLatched, &echo);
     const auto start = std::chrono::steady_clock::now();
@@ -136,6 +171,7 @@ int main(int argc, char** argv) {
   }
   std::lock_guard<std::mutex> lock(echo.mutex);
   echo.tum.flush();
+  echo.pose_tum.flush();
   std::cerr << "rsrio-echo: " << echo.odometry.load() << " odometry messages\n";
   return (count && echo.odometry.load() < count) ? 1 : 0;
 }

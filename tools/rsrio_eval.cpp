@@ -1,13 +1,16 @@
 // rsrio-eval: APE and RPE of an estimate against ground truth, as evo computes them, and a plot.
 //
 //   rsrio-eval --gt GT.tum --est EST.tum [--align se3|se2|none] [--plot OUT.png]
-//   rsrio-eval --table | --table-json [--data DIR] [--scenarios DIR] [--sequences 1,2,...] [--config FILE] [--reuse]
+//   rsrio-eval --table | --table-json | --ablation [--data DIR] [--scenarios DIR] [--sequences 1,2,...] [--config FILE] [--reuse]
 //
 // --table reproduces the paper's Table II for the five shipped scenarios (scenarios/seq1..seq5):
 // it makes each recording with rsrio-sim when DIR/<scenario>.mcap is missing, replays it with
-// rsrio-replay (--config FILE is passed on: the pipeline options, default config/rsrio.yaml when
-// present), and prints APE (SE(3) Umeyama alignment, one pair per estimated pose) next to the
-// paper's MRIO column. rsrio-sim and rsrio-replay are taken from the directory of this program.
+// rsrio-replay --backend ba (--config FILE is passed on: the pipeline options, default
+// config/rsrio.yaml when present) and prints the APE (SE(3) Umeyama alignment, one pair per
+// estimated pose) of the frontend and of the full method, next to the paper's columns.
+// --ablation replays each sequence once per variant of the paper's Tables III and IV (into
+// DIR/<scenario>_ablation_<variant>) and prints their APE averaged over the sequences.
+// rsrio-sim and rsrio-replay are taken from the directory of this program.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -70,66 +74,106 @@ double json_number(const std::string& text, const std::string& key) {
   return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
 }
 
-struct Row {
-  const Sequence* seq = nullptr;
+// One replay of one sequence with one set of backend options, evaluated.
+struct Run {
   bool ok = false;
   std::string error;
-  double distance_m = 0, translation_m = 0, rotation_deg = 0;
+  double distance_m = 0;
+  double frontend_t = 0, frontend_r = 0;  // APE of frontend.tum
+  double full_t = 0, full_r = 0;          // APE of estimate.tum (= frontend with backend none)
   double frames = 0, rejected = 0, damaged = 0, rtf = 0;
-  std::size_t pairs = 0;
 };
 
-int table(const std::string& data_dir, const std::string& scenario_dir, const std::string& sequences,
-          std::string config, bool reuse, bool json) {
-  const fs::path bin = fs::read_symlink("/proc/self/exe").parent_path();
-  const std::string sim = (bin / "rsrio-sim").string(), replay = (bin / "rsrio-replay").string();
-  for (const auto& p : {sim, replay})
-    if (!fs::exists(p)) {
-      std::cerr << "rsrio-eval: error: " << p << " not found (--table needs rsrio-sim and rsrio-replay next to rsrio-eval; "
-                << "build them)\n";
-      return 1;
+// A backend configuration of the ablations (paper Tables III and IV): YAML lines appended under
+// `backend:` to the pipeline options, or no backend at all.
+struct Variant {
+  const char* key;      // output directory suffix
+  const char* label;
+  const char* backend;  // none | ba
+  const char* overrides;
+};
+constexpr Variant kFull{"replay", "full (r_BA = 10 m, RA + RD)", "ba", ""};
+constexpr std::array<Variant, 9> kAblations{{
+    {"ablation_noba", "no BA (pose refinement + mapping only)", "ba", "  ba: {max_iterations: 0}\n"},
+    {"ablation_r1", "r_BA = 1 m", "ba", "  ba_radius_m: 1.0\n"},
+    {"ablation_r5", "r_BA = 5 m", "ba", "  ba_radius_m: 5.0\n"},
+    {"ablation_n2", "sliding N = 2", "ba", "  ba_window: sliding\n  ba_sliding_keyframes: 2\n"},
+    {"ablation_n5", "sliding N = 5", "ba", "  ba_window: sliding\n  ba_sliding_keyframes: 5\n"},
+    {"ablation_n10", "sliding N = 10", "ba", "  ba_window: sliding\n  ba_sliding_keyframes: 10\n"},
+    {"ablation_ninf", "sliding N = inf (every keyframe)", "ba",
+     "  ba_window: sliding\n  ba_sliding_keyframes: 1000\n  ba_max_keyframes: 1000\n"},
+    {"ablation_nord", "without the RD loss", "ba", "  rd_loss: false\n"},
+    {"ablation_nobackend", "backend off (frontend only)", "none", ""},
+}};
+
+class Tables {
+ public:
+  Tables(std::string data_dir, std::string scenario_dir, std::string config, bool reuse)
+      : data_(std::move(data_dir)), scenarios_(std::move(scenario_dir)), config_(std::move(config)), reuse_(reuse) {
+    const fs::path bin = fs::read_symlink("/proc/self/exe").parent_path();
+    sim_ = (bin / "rsrio-sim").string();
+    replay_ = (bin / "rsrio-replay").string();
+    for (const auto& p : {sim_, replay_})
+      if (!fs::exists(p))
+        throw std::runtime_error(p + " not found (--table needs rsrio-sim and rsrio-replay next to rsrio-eval; build them)");
+    if (config_.empty() && fs::exists("config/rsrio.yaml")) config_ = "config/rsrio.yaml";
+    if (!config_.empty()) {
+      std::ifstream f(config_);
+      if (!f) throw std::runtime_error(config_ + ": cannot read");
+      std::stringstream t;
+      t << f.rdbuf();
+      base_ = t.str();
     }
-  if (config.empty() && fs::exists("config/rsrio.yaml")) config = "config/rsrio.yaml";
-  fs::create_directories(data_dir);
-  std::vector<Row> rows;
-  for (std::size_t i = 0; i < kSequences.size(); ++i) {
-    if (!sequences.empty() && ("," + sequences + ",").find("," + std::to_string(i + 1) + ",") == std::string::npos)
-      continue;
-    Row row;
-    row.seq = &kSequences[i];
-    const std::string name = row.seq->scenario;
-    const fs::path rec = fs::path(data_dir) / (name + ".mcap");
-    const fs::path out = fs::path(data_dir) / (name + "_replay");
-    const std::string log = (fs::path(data_dir) / (name + ".log")).string();
-    rows.push_back(row);
-    Row& r = rows.back();
+    fs::create_directories(data_);
+  }
+
+  Run evaluate(const Sequence& seq, const Variant& v) {
+    Run r;
+    const std::string name = seq.scenario;
+    const fs::path rec = fs::path(data_) / (name + ".mcap");
+    const fs::path out = fs::path(data_) / (name + "_" + v.key);
+    const std::string log = (fs::path(data_) / (name + ".log")).string();
     if (!fs::exists(rec)) {
       const std::string part = rec.string() + ".part";
-      if (run({sim, "--scenario", (fs::path(scenario_dir) / (name + ".yaml")).string(), "--out", part}, log) != 0) {
+      if (run({sim_, "--scenario", (fs::path(scenarios_) / (name + ".yaml")).string(), "--out", part}, log) != 0) {
         r.error = "rsrio-sim failed (see " + log + ")";
-        continue;
+        return r;
       }
       fs::rename(part, rec);
     }
-    if (!reuse || !fs::exists(out / "frontend.tum")) {
-      std::vector<std::string> args{replay, "--quiet", "--input", rec.string(), "--out", out.string()};
+    if (!reuse_ || !made_with(out, v.backend)) {
+      std::vector<std::string> args{replay_, "--quiet", "--input", rec.string(), "--out", out.string(), "--backend",
+                                    v.backend};
+      std::string config = config_;
+      if (*v.overrides) {
+        // The variant's options: the pipeline's file with a backend: section appended.
+        if (base_.find("\nbackend:") != std::string::npos || base_.rfind("backend:", 0) == 0)
+          throw std::runtime_error(config_ + ": the ablations set the backend: section themselves; use a file without it");
+        fs::create_directories(out);
+        config = (out / "options.yaml").string();
+        std::ofstream f(config);
+        f << base_ << (base_.empty() || base_.back() == '\n' ? "" : "\n") << "backend:\n" << v.overrides;
+      }
       if (!config.empty()) args.insert(args.end(), {"--config", config});
       if (run(args, log) != 0) {
         r.error = "rsrio-replay failed (see " + log + ")";
-        continue;
+        return r;
       }
     }
     try {
       const auto gt = rsrio::eval::read_tum((out / "ground_truth.tum").string());
-      const auto est = rsrio::eval::read_tum((out / "frontend.tum").string());
-      rsrio::eval::Trajectory e, g;
-      rsrio::eval::associate(est, gt, 0.01, e, g);  // one pair per estimated pose
-      r.pairs = e.size();
-      if (e.size() < 3) throw std::runtime_error("fewer than 3 estimated poses pair with the ground truth");
-      const auto a = rsrio::eval::ape(g, e, rsrio::eval::Alignment::kSE3);
-      r.distance_m = a.path_length_m;
-      r.translation_m = a.translation_m.rmse;
-      r.rotation_deg = a.rotation_deg.rmse;
+      auto ape_of = [&](const char* file, double& t, double& rot) {
+        const auto est = rsrio::eval::read_tum((out / file).string());
+        rsrio::eval::Trajectory e, g;
+        rsrio::eval::associate(est, gt, 0.01, e, g);  // one pair per estimated pose
+        if (e.size() < 3) throw std::runtime_error(std::string(file) + ": fewer than 3 poses pair with the ground truth");
+        const auto a = rsrio::eval::ape(g, e, rsrio::eval::Alignment::kSE3);
+        t = a.translation_m.rmse;
+        rot = a.rotation_deg.rmse;
+        return a.path_length_m;
+      };
+      r.distance_m = ape_of("frontend.tum", r.frontend_t, r.frontend_r);
+      ape_of("estimate.tum", r.full_t, r.full_r);
       std::ifstream f(out / "stats.json");
       std::stringstream text;
       text << f.rdbuf();
@@ -141,41 +185,120 @@ int table(const std::string& data_dir, const std::string& scenario_dir, const st
     } catch (const std::exception& ex) {
       r.error = ex.what();
     }
+    return r;
   }
+
+ private:
+  // A replay output made with this backend (--reuse keeps it).
+  static bool made_with(const fs::path& out, const std::string& backend) {
+    std::ifstream f(out / "stats.json");
+    std::stringstream t;
+    t << f.rdbuf();
+    return fs::exists(out / "estimate.tum") && t.str().find("\"backend\": \"" + backend + "\"") != std::string::npos;
+  }
+  std::string data_, scenarios_, config_, base_, sim_, replay_;
+  bool reuse_;
+};
+
+std::vector<std::size_t> selected(const std::string& sequences) {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < kSequences.size(); ++i)
+    if (sequences.empty() || ("," + sequences + ",").find("," + std::to_string(i + 1) + ",") != std::string::npos)
+      out.push_back(i);
+  return out;
+}
+
+double reduction(double before, double after) { return before > 0 ? 100.0 * (before - after) / before : 0.0; }
+
+// Table II: the frontend and the full method (frontend + RadarSplat++ BA) on each sequence.
+int table(Tables& tables, const std::string& sequences, bool json) {
   bool all_ok = true;
+  std::vector<std::pair<const Sequence*, Run>> rows;
+  for (std::size_t i : selected(sequences)) rows.emplace_back(&kSequences[i], tables.evaluate(kSequences[i], kFull));
   if (json) {
     std::printf("[\n");
     for (std::size_t i = 0; i < rows.size(); ++i) {
-      const Row& r = rows[i];
+      const auto& [seq, r] = rows[i];
       all_ok &= r.ok;
       std::printf("  {\"sequence\": \"%s\", \"scenario\": \"%s\", \"ok\": %s, \"error\": \"%s\", "
                   "\"distance_m\": %.3f, \"paper_distance_m\": %.2f, \"mrio_translation_m\": %.2f, "
-                  "\"mrio_rotation_deg\": %.2f, \"frontend_translation_m\": %.4f, \"frontend_rotation_deg\": %.3f, "
-                  "\"frontend_percent_of_distance\": %.3f, \"frames\": %.0f, \"rejected_frames\": %.0f, "
-                  "\"damaged_frames\": %.0f, \"replay_real_time_factor\": %.2f}%s\n",
-                  r.seq->name, r.seq->scenario, r.ok ? "true" : "false", r.error.c_str(), r.distance_m,
-                  r.seq->paper_distance_m, r.seq->mrio_translation_m, r.seq->mrio_rotation_deg, r.translation_m,
-                  r.rotation_deg, r.distance_m > 0 ? 100 * r.translation_m / r.distance_m : 0.0, r.frames, r.rejected,
+                  "\"mrio_rotation_deg\": %.2f, \"paper_full_translation_m\": %.2f, \"paper_full_rotation_deg\": %.2f, "
+                  "\"frontend_translation_m\": %.4f, \"frontend_rotation_deg\": %.3f, "
+                  "\"full_translation_m\": %.4f, \"full_rotation_deg\": %.3f, "
+                  "\"translation_reduction_percent\": %.1f, \"rotation_reduction_percent\": %.1f, "
+                  "\"frames\": %.0f, \"rejected_frames\": %.0f, \"damaged_frames\": %.0f, "
+                  "\"replay_real_time_factor\": %.2f}%s\n",
+                  seq->name, seq->scenario, r.ok ? "true" : "false", r.error.c_str(), r.distance_m,
+                  seq->paper_distance_m, seq->mrio_translation_m, seq->mrio_rotation_deg, seq->paper_ours_translation_m,
+                  seq->paper_ours_rotation_deg, r.frontend_t, r.frontend_r, r.full_t, r.full_r,
+                  reduction(r.frontend_t, r.full_t), reduction(r.frontend_r, r.full_r), r.frames, r.rejected,
                   r.damaged, r.rtf, i + 1 < rows.size() ? "," : "");
     }
     std::printf("]\n");
-  } else {
-    std::printf("APE (SE(3) alignment) of the frontend on the simulated sequences; MRIO: paper Table II (real data)\n\n");
-    std::printf("%-11s %9s %9s | %10s %10s | %10s %10s %8s | %7s %9s\n", "sequence", "dist (m)", "paper (m)",
-                "MRIO t(m)", "MRIO r(deg)", "ours t(m)", "ours r(deg)", "% dist", "frames", "rejected");
-    for (const Row& r : rows) {
-      all_ok &= r.ok;
-      if (!r.ok) {
-        std::printf("%-11s %s\n", r.seq->name, r.error.c_str());
+    return all_ok ? 0 : 1;
+  }
+  std::printf("Table II: APE (SE(3) alignment) on the simulated sequences. Paper: MRIO and the paper's full method on\n"
+              "real data; ours: our frontend alone and with the RadarSplat++ backend (BA), from one replay.\n\n");
+  std::printf("%-11s %8s | %6s %6s | %6s %6s | %8s %8s | %8s %8s | %6s %6s | %5s\n", "sequence", "dist(m)", "MRIO t",
+              "r", "paper t", "r", "front t", "r(deg)", "full t", "r(deg)", "-t %", "-r %", "RTF");
+  for (const auto& [seq, r] : rows) {
+    all_ok &= r.ok;
+    if (!r.ok) {
+      std::printf("%-11s %s\n", seq->name, r.error.c_str());
+      continue;
+    }
+    std::printf("%-11s %8.2f | %6.2f %6.2f | %6.2f %6.2f | %8.3f %8.2f | %8.3f %8.2f | %6.1f %6.1f | %5.2f\n", seq->name,
+                r.distance_m, seq->mrio_translation_m, seq->mrio_rotation_deg, seq->paper_ours_translation_m,
+                seq->paper_ours_rotation_deg, r.frontend_t, r.frontend_r, r.full_t, r.full_r,
+                reduction(r.frontend_t, r.full_t), reduction(r.frontend_r, r.full_r), r.rtf);
+  }
+  std::printf("\n(-t %%, -r %%: APE reduction of the full method over the frontend; the paper's: ~90 %% / ~80 %%.\n"
+              " RTF: the replay's real-time factor with the backend, on this machine.)\n");
+  return all_ok ? 0 : 1;
+}
+
+// Tables III and IV: each variant's APE averaged over the selected sequences (as the paper).
+int ablation(Tables& tables, const std::string& sequences) {
+  struct Line {
+    explicit Line(const Variant* variant) : v(variant) {}
+    const Variant* v;
+    double t = 0, r = 0;
+    int n = 0;
+    std::string error;
+  };
+  std::vector<Line> lines{Line(&kFull)};
+  for (const Variant& v : kAblations) lines.emplace_back(&v);
+  for (std::size_t i : selected(sequences))
+    for (Line& l : lines) {
+      const Run result = tables.evaluate(kSequences[i], *l.v);
+      if (!result.ok) {
+        l.error += std::string(kSequences[i].name) + ": " + result.error + "; ";
         continue;
       }
-      std::printf("%-11s %9.2f %9.2f | %10.2f %10.2f | %10.3f %10.2f %8.2f | %7.0f %9.0f\n", r.seq->name, r.distance_m,
-                  r.seq->paper_distance_m, r.seq->mrio_translation_m, r.seq->mrio_rotation_deg, r.translation_m,
-                  r.rotation_deg, 100 * r.translation_m / std::max(r.distance_m, 1e-9), r.frames, r.rejected);
+      l.t += result.full_t;
+      l.r += result.full_r;
+      ++l.n;
     }
-    std::printf("\n(ours: the frontend alone, no backend; the paper's own full method: 0.19 / 0.42 / 2.04 / 1.05 / 0.97 m)\n");
+  std::printf("Tables III and IV: APE averaged over sequences %s (simulated). Paper (all sequences, real data) in [].\n\n",
+              sequences.empty() ? "1-5" : sequences.c_str());
+  std::printf("%-40s %10s %10s   %s\n", "variant", "trans (m)", "rot (deg)", "paper t / r");
+  const std::map<std::string, const char*> paper{{"replay", "[0.93 / 3.03]"},         {"ablation_noba", "[2.83 / 8.23]"},
+                                                 {"ablation_nobackend", "[10.99 / 18.42]"}, {"ablation_r1", "[3.12 / 7.98]"},
+                                                 {"ablation_r5", "[1.07 / 3.24]"},         {"ablation_n2", "[2.83 / 8.23]"},
+                                                 {"ablation_n5", "[1.42 / 3.95]"},         {"ablation_n10", "[1.17 / 3.61]"},
+                                                 {"ablation_ninf", "[1.36 / 4.03]"},       {"ablation_nord", "[3.41 / 3.57]"}};
+  bool ok = true;
+  for (const Line& l : lines) {
+    if (l.n == 0) {
+      std::printf("%-40s %s\n", l.v->label, l.error.c_str());
+      ok = false;
+      continue;
+    }
+    std::printf("%-40s %10.3f %10.2f   %s%s\n", l.v->label, l.t / l.n, l.r / l.n, paper.at(l.v->key),
+                l.error.empty() ? "" : "  (some sequences failed)");
   }
-  return all_ok ? 0 : 1;
+  std::printf("%-40s %10s %10s   %s\n", "no frontend (backend alone)", "-", "-", "[18.27 / 25.91]  not reproduced");
+  return ok ? 0 : 1;
 }
 
 void print_stats(const char* name, const rsrio::eval::ErrorStats& s) {
@@ -187,7 +310,7 @@ void print_stats(const char* name, const rsrio::eval::ErrorStats& s) {
 int main(int argc, char** argv) {
   std::string gt, est, align = "se3", plot, delta = "1.0", max_dt = "0.01";
   std::string data_dir = "build/data", scenario_dir = "scenarios", sequences;
-  bool do_table = false, table_json = false, reuse = false;
+  bool do_table = false, table_json = false, reuse = false, do_ablation = false;
   rsrio::Cli cli("rsrio-eval", "Absolute and relative pose error of an estimate against ground truth (TUM files),\n"
                                "computed as evo_ape / evo_rpe do, with an optional trajectory plot.");
   cli.option("--gt", "GT.tum", "ground truth trajectory (TUM: t x y z qx qy qz qw)", &gt)
@@ -201,11 +324,14 @@ int main(int argc, char** argv) {
       .option("--data", "DIR", "--table: recordings and replays (default build/data)", &data_dir)
       .option("--scenarios", "DIR", "--table: the scenario files (default scenarios)", &scenario_dir)
       .option("--sequences", "LIST", "--table: only these sequences, e.g. 1,3 (default all five)", &sequences)
+      .flag("--ablation", "as --table, the ablations of the paper's Tables III and IV (averaged over the sequences)",
+            &do_ablation)
       .flag("--reuse", "--table: keep existing replay outputs instead of replaying", &reuse);
   if (auto rc = cli.parse(argc, argv)) return *rc;
-  if (do_table || table_json) {
+  if (do_table || table_json || do_ablation) {
     try {
-      return table(data_dir, scenario_dir, sequences, cli.config_path(), reuse, table_json);
+      Tables tables(data_dir, scenario_dir, cli.config_path(), reuse);
+      return do_ablation ? ablation(tables, sequences) : table(tables, sequences, table_json);
     } catch (const std::exception& ex) {
       std::cerr << "rsrio-eval: error: " << ex.what() << "\n";
       return 1;

@@ -8,6 +8,10 @@
 // DIR/estimate.tum   the pose after the backend (= frontend.tum with --backend none)
 // DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99)
+// With --backend ba also the pictures (SPEC Sec. 11):
+// DIR/keyframe_NNNN_ra.png, _rd.png  measured | rendered RA and RD of a few keyframes (--pictures N)
+// DIR/map.png        the Gaussian map from above with the frontend's and the backend's trajectories
+//                    (and the ground truth, aligned to the backend's by SE(3))
 //
 // Frames are processed once the IMU has reached their measurement time (or at the end of the
 // recording), so a recording whose IMU messages lag the radar's is replayed as the daemon would see
@@ -36,7 +40,10 @@
 #include "rsrio/eval/trajectory.hpp"
 #include "rsrio/recording/recording.hpp"
 #include "rsrio/rio/odometry.hpp"
+#include "cli_numbers.hpp"
+#include "rsrio/eval/plot.hpp"
 #include "rsrio/splat/backend.hpp"
+#include "rsrio/splat/image_dump.hpp"
 
 namespace {
 
@@ -117,16 +124,62 @@ class BaBackend final : public Backend {
     f.t = frame.t;
     f.odom_T_body = frame.state->world_T_body;
     f.dsp = &dsp.result();  // this frame's: add_radar_frame just processed it
-    backend_->add_frame(f);
+    const auto t0 = std::chrono::steady_clock::now();
+    if (backend_->add_frame(f))
+      keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     return backend_->corrected(frame.state->world_T_body) * odometry_->options().frontend.body_T_radar;
   }
-  const rsrio::splat::Backend* backend() const { return backend_ ? &*backend_ : nullptr; }
+  rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
+  std::vector<double> keyframe_ms;  // the backend's time for each keyframe
 
  private:
   const std::optional<rsrio::rio::Odometry>& odometry_;
   rsrio::splat::BackendOptions options_;
   std::optional<rsrio::splat::Backend> backend_;
 };
+
+// The backend's pictures: measured | rendered RA and RD of `count` keyframes spread over the run,
+// and the Gaussian map from above with the trajectories (ground truth aligned to the estimate).
+void write_backend_pictures(rsrio::splat::Backend& backend, std::uint64_t count, const std::string& out_dir,
+                            const rsrio::eval::Trajectory& frontend, const rsrio::eval::Trajectory& estimate,
+                            const rsrio::eval::Trajectory& ground_truth) {
+  const auto path = [&](const std::string& name) { return (std::filesystem::path(out_dir) / name).string(); };
+  const std::size_t n = backend.keyframes().size();
+  std::size_t previous = n;  // none yet
+  for (std::uint64_t i = 0; i < count && n > 0; ++i) {
+    const std::size_t k = count == 1 ? n - 1 : static_cast<std::size_t>(i * (n - 1) / (count - 1));
+    if (k == previous) continue;  // fewer keyframes than pictures asked for
+    previous = k;
+    char prefix[32];
+    std::snprintf(prefix, sizeof prefix, "keyframe_%04zu", k);
+    rsrio::splat::write_keyframe_pngs(path(prefix), backend.render_keyframe(k));
+  }
+  const rsrio::splat::GaussianScene& scene = backend.scene();
+  rsrio::eval::PlotPoints points;
+  double max_log = -1e300;
+  for (std::size_t g = 0; g < scene.size(); ++g) max_log = std::max(max_log, std::log(scene.return_ratio(g)));
+  for (std::size_t g = 0; g < scene.size(); ++g) {
+    const Eigen::Vector3d m = scene.mean(g);
+    points.xy.emplace_back(m.x(), m.y());
+    // Darker = stronger return; 30 dB of range (log returns are of power).
+    points.weight.push_back(std::clamp(1.0 - (max_log - std::log(scene.return_ratio(g))) / std::log(1e3), 0.05, 1.0));
+  }
+  std::vector<rsrio::eval::PlotLine> lines{{"frontend", &frontend, cv::Scalar(40, 120, 240)},
+                                           {"backend (BA)", &estimate, cv::Scalar(200, 90, 20)}};
+  rsrio::eval::Trajectory gt_aligned;
+  if (!ground_truth.empty() && estimate.size() >= 3) {
+    rsrio::eval::Trajectory e, g;
+    rsrio::eval::associate(estimate, ground_truth, 0.02, e, g);
+    if (e.size() >= 3) {
+      gt_aligned = rsrio::eval::transformed(ground_truth, rsrio::eval::umeyama(e, g, rsrio::eval::Alignment::kSE3));
+      lines.push_back({"ground truth", &gt_aligned, cv::Scalar(60, 160, 60)});
+    }
+  }
+  rsrio::eval::plot_xy(path("map.png"), lines,
+                       std::to_string(scene.size()) + " Gaussians (grey, darker = stronger) from " + std::to_string(n) +
+                           " keyframes; trajectories of the radar",
+                       1000, &points);
+}
 
 struct PendingFrame {
   double t_stamp = 0;
@@ -136,7 +189,7 @@ struct PendingFrame {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string input, out_dir, backend_name = "none";
+  std::string input, out_dir, backend_name = "none", pictures_text = "3";
   bool quiet = false;
   rsrio::Cli cli(kProgram,
                  "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
@@ -146,6 +199,8 @@ int main(int argc, char** argv) {
   cli.option("--input", "REC.mcap", "the recording (rsrio-sim or a capture)", &input)
       .option("--out", "DIR", "output directory (made if missing)", &out_dir)
       .option("--backend", "none|ba", "backend after the frontend (default none)", &backend_name)
+      .option("--pictures", "N", "with --backend ba: measured vs rendered images of N keyframes (default 3)",
+              &pictures_text)
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   rsrio::rio::OdometryOptions options;
@@ -159,15 +214,18 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": error: --input and --out are required\n(see " << kProgram << " --help)\n";
     return rsrio::kExitUsage;
   }
+  std::uint64_t pictures = 0;
+  if (!rsrio::tools::parse_u64(pictures_text, pictures) || pictures > 1000) {
+    std::cerr << kProgram << ": error: --pictures: expected a number of keyframes in [0, 1000], got '" << pictures_text
+              << "'\n";
+    return rsrio::kExitUsage;
+  }
   if (backend_name != "none" && backend_name != "ba") {
     std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
     return rsrio::kExitUsage;
   }
   // The backend renders on the DSP's grids with the DSP's point spread, from the frontend's extrinsic.
-  backend_options.psf_range_window = options.dsp.range_window;
-  backend_options.psf_doppler_window = options.dsp.doppler_window;
-  backend_options.psf_angle_window = options.dsp.angle_window;
-  backend_options.body_T_radar = Eigen::Isometry3d(options.frontend.body_T_radar.matrix());
+  rsrio::splat::take_frontend_options(backend_options, options);
   {
     std::ostringstream s;
     rsrio::rio::print(s, options);
@@ -181,8 +239,14 @@ int main(int argc, char** argv) {
 
     std::optional<rsrio::rio::Odometry> odometry;
     std::unique_ptr<Backend> backend;
-    if (backend_name == "ba") backend = std::make_unique<BaBackend>(odometry, backend_options);
-    else backend = std::make_unique<NoBackend>();
+    BaBackend* ba = nullptr;
+    if (backend_name == "ba") {
+      auto b = std::make_unique<BaBackend>(odometry, backend_options);
+      ba = b.get();
+      backend = std::move(b);
+    } else {
+      backend = std::make_unique<NoBackend>();
+    }
     std::optional<rsrio_msgs::msg::RadarConfig> config_msg;
     rsrio::AdcCube cube;
     std::vector<rsrio::rio::ImuSample> imu_before_radar;  // until the first frame makes the odometry
@@ -319,6 +383,8 @@ int main(int argc, char** argv) {
     rsrio::eval::write_tum(path("frontend.tum"), frontend_tum);
     rsrio::eval::write_tum(path("estimate.tum"), estimate_tum);
     if (!ground_truth.empty()) rsrio::eval::write_tum(path("ground_truth.tum"), ground_truth);
+    if (ba != nullptr && ba->backend() != nullptr) write_backend_pictures(*ba->backend(), pictures, out_dir, frontend_tum,
+                                                                           estimate_tum, ground_truth);
 
     std::string damage;
     if (reader.damage()) {
@@ -358,8 +424,17 @@ int main(int argc, char** argv) {
     timing("dsp", t_dsp, false);
     timing("ego_velocity", t_ego, false);
     timing("frontend", t_frontend, false);
-    timing("frame", t_total, true);
-    js << "  }\n}\n";
+    timing("frame", t_total, ba == nullptr || ba->backend() == nullptr);
+    if (ba != nullptr && ba->backend() != nullptr) timing("backend_keyframe", ba->keyframe_ms, true);
+    js << "  }";
+    if (ba != nullptr && ba->backend() != nullptr) {
+      const rsrio::splat::BackendStats& st = ba->backend()->stats();
+      js << ",\n  \"backend_stats\": {\"keyframes\": " << st.keyframes << ", \"gaussians\": " << st.gaussians
+         << ", \"nan_guard_hits\": " << st.nan_guard_hits << ", \"rejected_frames\": " << st.rejected_frames
+         << ", \"pose_s\": " << st.pose.total_s << ", \"mapping_s\": " << st.mapping.total_s
+         << ", \"ba_s\": " << st.ba.total_s << ", \"ba_budget_stops\": " << st.ba.budget_stops << "}";
+    }
+    js << "\n}\n";
     if (!js) throw std::runtime_error(path("stats.json") + ": write failed");
 
     const auto pd = percentiles(t_dsp), pe = percentiles(t_ego), pf = percentiles(t_frontend);

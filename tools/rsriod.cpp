@@ -18,6 +18,7 @@
 #include "rsrio/runtime/dds.hpp"
 #include "rsrio/runtime/pipeline.hpp"
 #include "rsrio/runtime/systemd_notify.hpp"
+#include "rsrio/splat/backend.hpp"
 
 namespace {
 
@@ -34,13 +35,14 @@ std::optional<rsrio::RadarConfig> recording_radar(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string source, imu_source, domain;
+  std::string source, imu_source, domain, backend_name;
   bool progress = false;
   rsrio::Cli cli("rsriod", "Radar-inertial odometry daemon: TI mmWave radar + IMU -> poses over DDS.");
   cli.option("--source", "URI", "radar source: dca1000://BOARD[:HOST] or recording:PATH (overrides daemon.radar_source)",
              &source)
       .option("--imu-source", "dds|recording", "where IMU comes from (overrides daemon.imu_source)", &imu_source)
       .option("--domain", "ID", "DDS domain (overrides daemon.domain_id)", &domain)
+      .option("--backend", "none|ba", "backend after the frontend (overrides daemon.backend)", &backend_name)
       .flag("--progress", "print a progress line every second", &progress);
   if (auto rc = cli.parse(argc, argv)) return *rc;
 
@@ -48,6 +50,7 @@ int main(int argc, char** argv) {
   rsrio::RadarConfig radar = rsrio::radar_preset("xwr1843");
   bool radar_given = false;
   rsrio::rio::OdometryOptions stage;
+  rsrio::splat::BackendOptions backend;
   if (auto rc = rsrio::load_program_config(cli, "rsriod", [&](rsrio::OptionsNode& root) {
         if (root.has("daemon")) {
           rsrio::OptionsNode n = root.child("daemon");
@@ -59,6 +62,7 @@ int main(int argc, char** argv) {
           radar_given = true;
         }
         stage = rsrio::rio::load_odometry_options(root);  // dsp:, ego_velocity:, frontend:
+        if (root.has("backend")) backend = rsrio::splat::load_backend_options(root.child("backend"));
       }))
     return *rc;
   if (!source.empty()) daemon.radar_source = source;
@@ -72,6 +76,11 @@ int main(int argc, char** argv) {
   if (daemon.radar_source.rfind("dca1000://", 0) != 0 && daemon.radar_source.rfind("recording:", 0) != 0) {
     std::cerr << "rsriod: error: --source: expected dca1000://BOARD[:HOST] or recording:PATH, got '"
               << daemon.radar_source << "'\n";
+    return rsrio::kExitUsage;
+  }
+  if (!backend_name.empty()) daemon.backend = backend_name;
+  if (daemon.backend != "none" && daemon.backend != "ba") {
+    std::cerr << "rsriod: error: --backend: expected none or ba, got '" << daemon.backend << "'\n";
     return rsrio::kExitUsage;
   }
   if (daemon.imu_source != "dds" && daemon.imu_source != "recording") {
@@ -101,6 +110,8 @@ int main(int argc, char** argv) {
     rsrio::print(std::cout, daemon);
     rsrio::print(std::cout, radar);
     rsrio::rio::print(std::cout, stage);
+    rsrio::splat::take_frontend_options(backend, stage);  // extrinsic and point spread from the frontend
+    if (daemon.backend == "ba") rsrio::splat::print(std::cout, backend);
     std::cout.flush();
 
     // DDS before any real-time thread: its own threads must not inherit SCHED_FIFO.
@@ -109,7 +120,7 @@ int main(int argc, char** argv) {
     dds_options.loopback_only = daemon.loopback_only;
     dds_options.participant_name = "rsriod";
     rsrio::DdsParticipant dds(dds_options);
-    rsrio::Pipeline pipeline(daemon, radar, stage, dds);
+    rsrio::Pipeline pipeline(daemon, radar, stage, backend, dds);
     std::atomic<std::uint64_t> poses{0};
     std::atomic<std::int64_t> last_stamp_ns{0};
     pipeline.on_pose([&](const rsrio::PoseOutput& p) {
@@ -158,6 +169,16 @@ int main(int argc, char** argv) {
     if (stop_signal) spdlog::info("{}: stopping", stop_signal == SIGINT ? "SIGINT" : "SIGTERM");
     pipeline.request_stop();
     if (!pipeline.stop()) spdlog::warn("shutdown took longer than {} s", daemon.shutdown_timeout_s);
+    const rsrio::PipelineTimings tm = pipeline.timings();
+    auto line = [](const char* what, const rsrio::TimingSummary& s) {
+      if (s.samples > 0)
+        spdlog::info("{}: p50 {:.2f} ms, p99 {:.2f} ms, max {:.2f} ms, mean {:.2f} ms over {}", what, s.p50, s.p99,
+                     s.max, s.mean, s.samples);
+    };
+    line("latency frame complete -> odometry published", tm.latency);
+    line("RIO pickup (frame complete -> RIO thread)", tm.rio_pickup);
+    line("RIO processing per frame", tm.rio_busy);
+    line("bundle adjustment per keyframe", tm.ba);
     const std::int64_t last = last_stamp_ns.load();
     spdlog::info("stopped after {} poses, last pose at {}.{:09d}", poses.load(), last / 1000000000, last % 1000000000);
   } catch (const rsrio::ConfigError& e) {

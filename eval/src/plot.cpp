@@ -1,5 +1,6 @@
 #include "rsrio/eval/plot.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -8,7 +9,8 @@
 
 namespace rsrio::eval {
 
-void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const std::string& title, int width_px) {
+void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const std::string& title, int width_px,
+             const PlotPoints* points) {
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
   for (const auto& l : lines)
     for (const auto& p : *l.trajectory) {
@@ -16,6 +18,13 @@ void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const 
       xmax = std::max(xmax, p.p.x());
       ymin = std::min(ymin, p.p.y());
       ymax = std::max(ymax, p.p.y());
+    }
+  if (points != nullptr)
+    for (const auto& p : points->xy) {
+      xmin = std::min(xmin, p.x());
+      xmax = std::max(xmax, p.x());
+      ymin = std::min(ymin, p.y());
+      ymax = std::max(ymax, p.y());
     }
   if (xmin > xmax) xmin = ymin = -1, xmax = ymax = 1;
   const double span = std::max({xmax - xmin, ymax - ymin, 1.0}) * 1.1;
@@ -47,6 +56,12 @@ void plot_xy(const std::string& path, const std::vector<PlotLine>& lines, const 
   cv::putText(img, "x [m]", cv::Point(width_px / 2 - 20, height_px - 15), cv::FONT_HERSHEY_SIMPLEX, 0.5, ink);
   cv::putText(img, "y [m]", cv::Point(8, 40 + margin - 10), cv::FONT_HERSHEY_SIMPLEX, 0.5, ink);
   cv::putText(img, title, cv::Point(margin, 30), cv::FONT_HERSHEY_SIMPLEX, 0.6, ink, 1, cv::LINE_AA);
+  if (points != nullptr)
+    for (std::size_t i = 0; i < points->xy.size(); ++i) {
+      const double w = i < points->weight.size() ? std::clamp(points->weight[i], 0.0, 1.0) : 1.0;
+      const double grey = 220 - 200 * w;
+      cv::circle(img, px(points->xy[i].x(), points->xy[i].y()), 1, cv::Scalar(grey, grey, grey), cv::FILLED);
+    }
   int legend_y = 40 + margin + 20;
   for (const auto& l : lines) {
     std::vector<cv::Point> pts;

@@ -20,16 +20,21 @@ DaemonOptions load_daemon_options(OptionsNode& node) {
   node.read("status_topic", o.status_topic);
   node.read("odom_frame_id", o.odom_frame_id);
   node.read("base_frame_id", o.base_frame_id);
+  node.read("map_frame_id", o.map_frame_id);
+  node.read_choice("backend", o.backend, {"none", "ba"});
   node.read("domain_id", o.domain_id, {0, 232});
   node.read("loopback_only", o.loopback_only);
   node.read("frame_queue", o.frame_queue, {1, 64});
   node.read("imu_queue", o.imu_queue, {16, 1 << 16});
   node.read("pose_queue", o.pose_queue, {1, 4096});
   node.read("event_queue", o.event_queue, {16, 1 << 16});
+  node.read("keyframe_queue", o.keyframe_queue, {1, 64});
   node.read("capture_priority", o.capture_priority, {0, 99});
   node.read("rio_priority", o.rio_priority, {0, 99});
   node.read("capture_cpus", o.capture_cpus, {0, 1023});
   node.read("rio_cpus", o.rio_cpus, {0, 1023});
+  node.read("ba_nice", o.ba_nice, {0, 19});
+  node.read("ba_cpus", o.ba_cpus, {0, 1023});
   node.read("thread_stack_kib", o.thread_stack_kib, {64, 65536});
   node.read("lock_memory", o.lock_memory);
   node.read("rt_required", o.rt_required);
@@ -64,16 +69,21 @@ void print(std::ostream& out, const DaemonOptions& o) {
       << "  status_topic: " << o.status_topic << "\n"
       << "  odom_frame_id: " << o.odom_frame_id << "\n"
       << "  base_frame_id: " << o.base_frame_id << "\n"
+      << "  map_frame_id: " << o.map_frame_id << "\n"
+      << "  backend: " << o.backend << "\n"
       << "  domain_id: " << o.domain_id << "\n"
       << "  loopback_only: " << (o.loopback_only ? "true" : "false") << "\n"
       << "  frame_queue: " << o.frame_queue << "\n"
       << "  imu_queue: " << o.imu_queue << "\n"
       << "  pose_queue: " << o.pose_queue << "\n"
       << "  event_queue: " << o.event_queue << "\n"
+      << "  keyframe_queue: " << o.keyframe_queue << "\n"
       << "  capture_priority: " << o.capture_priority << "\n"
       << "  rio_priority: " << o.rio_priority << "\n"
       << "  capture_cpus: " << list(o.capture_cpus) << "\n"
       << "  rio_cpus: " << list(o.rio_cpus) << "\n"
+      << "  ba_nice: " << o.ba_nice << "\n"
+      << "  ba_cpus: " << list(o.ba_cpus) << "\n"
       << "  thread_stack_kib: " << o.thread_stack_kib << "\n"
       << "  lock_memory: " << (o.lock_memory ? "true" : "false") << "\n"
       << "  rt_required: " << (o.rt_required ? "true" : "false") << "\n"

@@ -20,14 +20,15 @@ void stamp(std::int64_t ns, builtin_interfaces::msg::Time& t) {
   t.nanosec(static_cast<std::uint32_t>(rem));
 }
 
-void fill_pose(const PoseOutput& p, geometry_msgs::msg::Pose& pose) {
-  pose.position().x(p.position[0]);
-  pose.position().y(p.position[1]);
-  pose.position().z(p.position[2]);
-  pose.orientation().x(p.orientation[0]);
-  pose.orientation().y(p.orientation[1]);
-  pose.orientation().z(p.orientation[2]);
-  pose.orientation().w(p.orientation[3]);
+void fill_pose(const std::array<double, 3>& position, const std::array<double, 4>& orientation,
+               geometry_msgs::msg::Pose& pose) {
+  pose.position().x(position[0]);
+  pose.position().y(position[1]);
+  pose.position().z(position[2]);
+  pose.orientation().x(orientation[0]);
+  pose.orientation().y(orientation[1]);
+  pose.orientation().z(orientation[2]);
+  pose.orientation().w(orientation[3]);
 }
 
 }  // namespace
@@ -36,7 +37,7 @@ void to_msg(const PoseOutput& p, const PublisherOptions& o, nav_msgs::msg::Odome
   stamp(p.stamp_ns, odom.header().stamp());
   odom.header().frame_id(o.odom_frame_id);
   odom.child_frame_id(o.base_frame_id);
-  fill_pose(p, odom.pose().pose());
+  fill_pose(p.position, p.orientation, odom.pose().pose());
   odom.pose().covariance(p.pose_covariance);
   odom.twist().twist().linear().x(p.linear_velocity[0]);
   odom.twist().twist().linear().y(p.linear_velocity[1]);
@@ -49,8 +50,14 @@ void to_msg(const PoseOutput& p, const PublisherOptions& o, nav_msgs::msg::Odome
 
 void to_msg(const PoseOutput& p, const PublisherOptions& o, geometry_msgs::msg::PoseStamped& pose) {
   stamp(p.stamp_ns, pose.header().stamp());
-  pose.header().frame_id(o.odom_frame_id);
-  fill_pose(p, pose.pose());
+  if (p.has_map_pose) {
+    // The backend's estimate: the refined keyframe pose composed with the frontend's motion since.
+    pose.header().frame_id(o.map_frame_id);
+    fill_pose(p.map_position, p.map_orientation, pose.pose());
+  } else {
+    pose.header().frame_id(o.odom_frame_id);
+    fill_pose(p.position, p.orientation, pose.pose());
+  }
 }
 
 OdometryPublisher::OdometryPublisher(DdsParticipant& participant, const PublisherOptions& options)

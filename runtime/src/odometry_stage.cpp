@@ -22,6 +22,8 @@ bool OdometryStage::add_frame(double t, const AdcCube& cube, PoseOutput& out) {
   // The state belongs to the middle of the frame (its Doppler is averaged over the chirps), not to
   // the stamp of its last chirp: publish it with the time it is true at.
   out.stamp_ns -= std::llround((info.t_stamp - info.t) * 1e9);
+  last_t_ = info.t;
+  last_odom_T_body_ = state->world_T_body;
 
   const gtsam::Rot3 R = state->world_T_body.rotation();
   const gtsam::Point3 p = state->world_T_body.translation();

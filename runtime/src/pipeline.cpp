@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <numeric>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -21,7 +22,9 @@
 #include "rsrio/driver/dca1000_driver.hpp"
 #include "rsrio/recording/recording.hpp"
 #include "rsrio/runtime/dds.hpp"
+#include "rsrio/runtime/keyframe_handoff.hpp"
 #include "rsrio/runtime/realtime.hpp"
+#include "rsrio/splat/backend.hpp"
 #include "sensor_msgs/msg/ImuPubSubTypes.hpp"
 
 namespace fdds = eprosima::fastdds::dds;
@@ -44,7 +47,7 @@ struct FrameRef {
 struct Event {
   enum Code : std::uint8_t {
     kRadarStreaming, kRadarStale, kRadarError, kRecordingEnd, kRecordingDamage, kFrameDamaged,
-    kFrameDropped, kDecodeError, kImuStale, kImuBack, kProcessingError, kConfigMismatch
+    kFrameDropped, kDecodeError, kImuStale, kImuBack, kProcessingError, kConfigMismatch, kBackendError
   };
   Code code = kRadarStreaming;
   std::int64_t value = 0;
@@ -65,6 +68,7 @@ std::string_view describe(Event::Code c) {
     case Event::kImuBack: return "IMU back";
     case Event::kProcessingError: return "processing failed for a frame";
     case Event::kConfigMismatch: return "frame's radar configuration differs from the daemon's";
+    case Event::kBackendError: return "bundle adjustment failed for a keyframe";
   }
   return "?";
 }
@@ -82,6 +86,11 @@ rio::ImuSample to_sample(const sensor_msgs::msg::Imu& m) {
   return s;
 }
 
+// What the BA thread hands to the publisher after each keyframe.
+struct Correction {
+  Eigen::Isometry3d map_T_odom = Eigen::Isometry3d::Identity();
+};
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   const std::size_t k = static_cast<std::size_t>(std::min<double>(v.size() - 1, std::floor(q * v.size())));
@@ -95,7 +104,13 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   DaemonOptions options;
   RadarConfig radar;
   rio::OdometryOptions stage_options;
+  splat::BackendOptions backend_options;
   DdsParticipant& dds;
+  // Made here, on the caller's thread: the threads find everything allocated.
+  std::unique_ptr<OdometryStage> odometry_stage;
+  std::unique_ptr<splat::Backend> backend;     // null: backend none
+  std::unique_ptr<KeyframeHandoff> keyframes;  // RIO -> BA
+  SpscQueue<Correction> corrections{8};        // BA -> publisher (latest wins)
   PublisherOptions publisher_options;
   std::unique_ptr<OdometryPublisher> publisher;
 
@@ -115,6 +130,9 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   std::atomic<bool> source_finished{false};
   std::atomic<bool> rio_done{false};
   std::atomic<bool> publisher_done{false};
+  // The backend's figures for the status (BA thread writes).
+  std::atomic<std::uint64_t> ba_keyframes{0}, ba_gaussians{0}, ba_errors{0}, ba_nan_guards{0};
+  std::atomic<double> ba_last_ms{0};
   std::atomic<std::uint64_t> heartbeat{0};
   std::atomic<int> radar_state{0};  // 0 waiting, 1 streaming, 2 stale, 3 error, 4 finished
   std::atomic<std::int64_t> last_imu_mono_ns{0};
@@ -132,12 +150,14 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   // SCHED_FIFO priority and CPU set. One thread: the RIO thread optimises itself, nothing else
   // runs at its priority behind its back.
   tbb::global_control single_threaded_gtsam{tbb::global_control::max_allowed_parallelism, 1};
-  RtThread capture_thread, rio_thread, publisher_thread;
-  std::vector<double> latencies_ms;  // publisher thread only
+  RtThread capture_thread, rio_thread, publisher_thread, ba_thread;
+  std::vector<double> latencies_ms, pickup_ms, busy_ms;  // publisher thread only (read after join)
+  std::vector<double> ba_ms;                              // BA thread only (read after join)
   std::uint64_t status_received = 0, status_damaged = 0;  // at the last status (publisher thread)
 
-  Impl(const DaemonOptions& o, const RadarConfig& r, const rio::OdometryOptions& s, DdsParticipant& d)
-      : options(o), radar(r), stage_options(s), dds(d),
+  Impl(const DaemonOptions& o, const RadarConfig& r, const rio::OdometryOptions& s, const splat::BackendOptions& b,
+       DdsParticipant& d)
+      : options(o), radar(r), stage_options(s), backend_options(b), dds(d),
         frame_bytes(raw_frame_bytes(r)),
         frames(static_cast<std::size_t>(o.frame_queue)),
         free_slots(static_cast<std::size_t>(o.frame_queue) + 1),
@@ -150,13 +170,26 @@ struct Pipeline::Impl : fdds::DataReaderListener {
     publisher_options.status_topic = o.status_topic;
     publisher_options.odom_frame_id = o.odom_frame_id;
     publisher_options.base_frame_id = o.base_frame_id;
+    publisher_options.map_frame_id = o.map_frame_id;
+    odometry_stage = std::make_unique<OdometryStage>(r, s);
+    if (o.backend == "ba") {
+      splat::take_frontend_options(backend_options, s);
+      const DspGrids& grids = odometry_stage->odometry().dsp().grids();
+      backend = std::make_unique<splat::Backend>(r, grids, backend_options);
+      backend->set_cancel_flag(&stop_flag);  // SIGTERM during BA: the stage ends at its next iteration
+      const auto max_points = static_cast<std::size_t>(s.dsp.cfar.max_detections) *
+                              static_cast<std::size_t>(s.dsp.max_angle_peaks);
+      keyframes = std::make_unique<KeyframeHandoff>(
+          static_cast<std::size_t>(o.keyframe_queue), static_cast<std::size_t>(grids.range_bins * grids.azimuth_bins),
+          static_cast<std::size_t>(grids.range_bins * grids.doppler_bins), max_points, backend_options);
+    }
     // One slot more than the queue holds: the RIO thread works on one while the queue is full.
     pool.resize(static_cast<std::size_t>(o.frame_queue) + 1);
     for (std::uint32_t i = 0; i < pool.size(); ++i) {
       pool[i].assign(frame_bytes, 0);
       free_slots.try_push(i);
     }
-    latencies_ms.reserve(1 << 16);
+    for (auto* v : {&latencies_ms, &pickup_ms, &busy_ms, &ba_ms}) v->reserve(1 << 16);  // ~1.8 h at 10 Hz
   }
 
   void event(SpscQueue<Event>& q, Event::Code code, std::int64_t value = 0, const char* text = nullptr) {
@@ -299,7 +332,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 
   // ---- RIO thread ------------------------------------------------------------------------------
   void rio_loop() {
-    OdometryStage stage(radar, stage_options);
+    OdometryStage& stage = *odometry_stage;
     AdcCube cube = AdcCube::for_config(radar);
     PoseOutput out;
     rio::ImuSample s;
@@ -324,6 +357,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
         const bool imu_there = latest_imu_t >= 1e-9 * static_cast<double>(ref.stamp_ns);
         if (imu_there || monotonic_ns() - pending_since > imu_wait_ns || source_finished.load()) {
           pending = false;
+          out.rio_pickup_mono_ns = pending_since;
           process(stage, ref, cube, out);
           continue;
         }
@@ -340,6 +374,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   }
 
   void process(OdometryStage& stage, const FrameRef& ref, AdcCube& cube, PoseOutput& out) {
+    out.rio_start_mono_ns = monotonic_ns();
     const bool damaged = ref.flags & kFrameDamaged;
     bool ok = false;
     if (!damaged) {
@@ -362,11 +397,49 @@ struct Pipeline::Impl : fdds::DataReaderListener {
       out.frame_number = ref.frame_number;
       if (stage.add_frame(1e-9 * static_cast<double>(ref.stamp_ns), cube, out)) {
         poses_made.fetch_add(1, std::memory_order_relaxed);
+        // A keyframe candidate is copied into a preallocated slot (full: dropped, counted there).
+        if (keyframes)
+          keyframes->offer(stage.last_t(), Eigen::Isometry3d(stage.last_odom_T_body().matrix()), stage.dsp_result());
+        out.rio_end_mono_ns = monotonic_ns();
         poses.try_push(out);  // full: newest dropped, counted by the queue
       }
     } catch (const std::exception& e) {
       processing_errors.fetch_add(1, std::memory_order_relaxed);
       event(rio_events, Event::kProcessingError, static_cast<std::int64_t>(ref.frame_number), e.what());
+    }
+  }
+
+  // ---- BA thread (SCHED_OTHER, niced) ---------------------------------------------------------
+  // Allocation, locks and time are allowed here: nothing real-time waits for this thread.
+  void ba_loop() {
+    while (true) {
+      if (KeyframeCandidate* c = keyframes->next()) {
+        try {
+          if (c->has_previous) backend->add_predecessor(c->previous_t, gtsam::Pose3(c->previous_odom_T_body.matrix()));
+          const DspResult view = c->view();
+          const auto start = Clock::now();
+          const bool made = backend->add_frame({c->t, gtsam::Pose3(c->odom_T_body.matrix()), &view});
+          keyframes->release(c);
+          if (made) {
+            const splat::BackendStats& st = backend->stats();
+            ba_last_ms.store(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
+            if (ba_ms.size() < ba_ms.capacity()) ba_ms.push_back(ba_last_ms.load());
+            ba_keyframes.store(st.keyframes);
+            ba_gaussians.store(st.gaussians);
+            ba_nan_guards.store(st.nan_guard_hits);
+            Correction corr{Eigen::Isometry3d(backend->map_T_odom().matrix())};
+            corrections.try_push(corr);  // full: the publisher is behind; a later one follows
+          }
+        } catch (const std::exception& e) {
+          keyframes->release(c);
+          ba_errors.fetch_add(1);
+          spdlog::error("{}: {}", describe(Event::kBackendError), e.what());  // not a real-time thread
+        }
+        continue;
+      }
+      if (stop_flag.load(std::memory_order_relaxed)) break;
+      if (rio_done.load(std::memory_order_acquire) && keyframes->depth() == 0) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }
 
@@ -423,6 +496,18 @@ struct Pipeline::Impl : fdds::DataReaderListener {
     st.queues().push_back(queue("poses", poses));
     st.queues().push_back(queue("capture_events", capture_events));
     st.queues().push_back(queue("rio_events", rio_events));
+    if (keyframes) {
+      rsrio_msgs::msg::QueueStatus k;
+      k.name("keyframes");
+      k.depth(static_cast<std::uint32_t>(keyframes->depth()));
+      k.capacity(static_cast<std::uint32_t>(keyframes->capacity()));
+      k.pushed(keyframes->pushed());
+      k.dropped(keyframes->dropped());
+      st.queues().push_back(k);
+      st.ba_time_ms(static_cast<float>(ba_last_ms.load()));
+      st.keyframes(static_cast<std::uint32_t>(ba_keyframes.load()));
+      st.gaussians(static_cast<std::uint32_t>(ba_gaussians.load()));
+    }
     st.latency_p50_ms(static_cast<float>(percentile(latencies_ms, 0.5)));
     st.latency_p99_ms(static_cast<float>(percentile(latencies_ms, 0.99)));
     std::string health;
@@ -437,6 +522,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
                 " frames damaged since the last status (packet loss); ";
     if (snap.imu_state != "ok") health += "imu " + snap.imu_state + "; ";
     if (processing_errors.load()) health += std::to_string(processing_errors.load()) + " processing errors; ";
+    if (ba_errors.load()) health += std::to_string(ba_errors.load()) + " bundle-adjustment errors; ";
     st.level(health.empty() ? 0 : (snap.radar_state.rfind("error", 0) == 0 ? 2 : 1));
     st.health(health.empty() ? "ok" : health.substr(0, health.size() - 2));
     return st;
@@ -444,15 +530,33 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 
   void publisher_loop() {
     PoseOutput p;
+    Correction correction;  // map_T_odom: identity until the backend's first keyframe (map = odom there)
     auto next_status = Clock::now();
     bool imu_stale_reported = false;
     while (true) {
       bool any = false;
+      while (corrections.try_pop(correction)) {
+      }
       while (poses.try_pop(p)) {
         any = true;
+        if (backend) {
+          Eigen::Isometry3d odom_T_base = Eigen::Isometry3d::Identity();
+          odom_T_base.translation() = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+          odom_T_base.linear() =
+              Eigen::Quaterniond(p.orientation[3], p.orientation[0], p.orientation[1], p.orientation[2])
+                  .toRotationMatrix();
+          const Eigen::Isometry3d map_T_base = correction.map_T_odom * odom_T_base;
+          const Eigen::Quaterniond q(map_T_base.linear());
+          p.has_map_pose = true;
+          p.map_position = {map_T_base.translation().x(), map_T_base.translation().y(), map_T_base.translation().z()};
+          p.map_orientation = {q.x(), q.y(), q.z(), q.w()};
+        }
         publisher->publish(p);
-        if (latencies_ms.size() < latencies_ms.capacity())
+        if (latencies_ms.size() < latencies_ms.capacity()) {
           latencies_ms.push_back(1e-6 * static_cast<double>(monotonic_ns() - p.frame_complete_mono_ns));
+          pickup_ms.push_back(1e-6 * static_cast<double>(p.rio_pickup_mono_ns - p.frame_complete_mono_ns));
+          busy_ms.push_back(1e-6 * static_cast<double>(p.rio_end_mono_ns - p.rio_start_mono_ns));
+        }
         if (pose_callback) pose_callback(p);
       }
       log_events(capture_events);
@@ -496,8 +600,8 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 };
 
 Pipeline::Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
-                   DdsParticipant& dds)
-    : impl_(std::make_unique<Impl>(options, radar, stage, dds)) {
+                   const splat::BackendOptions& backend, DdsParticipant& dds)
+    : impl_(std::make_unique<Impl>(options, radar, stage, backend, dds)) {
   impl_->publisher = std::make_unique<OdometryPublisher>(dds, impl_->publisher_options);
   if (options.imu_source == "dds")
     impl_->imu_reader = dds.make_reader(ros_topic_to_dds(options.imu_topic),
@@ -521,6 +625,12 @@ void Pipeline::start() {
   ThreadOptions rio{"rsrio-rio", m.options.rio_priority, m.options.rio_cpus, stack};
   ThreadOptions cap{"rsrio-capture", m.options.capture_priority, m.options.capture_cpus, stack};
   m.publisher_thread.start(pub, [&m] { m.publisher_loop(); });
+  if (m.backend) {
+    ThreadOptions ba{"rsrio-ba", 0, m.options.ba_cpus, stack};
+    ba.nice = m.options.ba_nice;
+    const ThreadPlacement bp = m.ba_thread.start(ba, [&m] { m.ba_loop(); });
+    if (!bp.note.empty()) spdlog::warn("{}", bp.note);
+  }
   const ThreadPlacement rp = m.rio_thread.start(rio, [&m] { m.rio_loop(); });
   const bool recording = m.options.radar_source.rfind("recording:", 0) == 0;
   const ThreadPlacement cp = m.capture_thread.start(cap, [&m, recording] {
@@ -553,11 +663,27 @@ bool Pipeline::stop() {
   const auto start = Clock::now();
   m.capture_thread.join();
   m.rio_thread.join();
+  m.ba_thread.join();
   m.publisher_thread.join();
   const double took = std::chrono::duration<double>(Clock::now() - start).count();
   return took <= m.options.shutdown_timeout_s;
 }
 
 PipelineSnapshot Pipeline::snapshot() const { return impl_->snapshot_now(); }
+
+PipelineTimings Pipeline::timings() const {
+  auto summary = [](const std::vector<double>& v) {
+    TimingSummary s;
+    s.samples = v.size();
+    if (v.empty()) return s;
+    s.p50 = percentile(v, 0.5);
+    s.p99 = percentile(v, 0.99);
+    s.max = *std::max_element(v.begin(), v.end());
+    s.mean = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+    return s;
+  };
+  const Impl& m = *impl_;
+  return {summary(m.latencies_ms), summary(m.pickup_ms), summary(m.busy_ms), summary(m.ba_ms)};
+}
 
 }  // namespace rsrio

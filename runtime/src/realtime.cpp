@@ -5,6 +5,8 @@
 #include <system_error>
 
 #include <sched.h>
+#include <sys/resource.h>
+#include <unistd.h>
 #include <sys/mman.h>
 
 namespace rsrio {
@@ -12,12 +14,17 @@ namespace rsrio {
 RtThread::~RtThread() { join(); }
 
 void* RtThread::trampoline(void* self) {
-  static_cast<RtThread*>(self)->body_();
+  auto* t = static_cast<RtThread*>(self);
+  // Linux: nice is per thread. Lowering one's own priority needs no privilege; if it fails the
+  // thread merely runs at the default priority.
+  if (t->nice_ != 0) (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::gettid()), t->nice_);
+  t->body_();
   return nullptr;
 }
 
 ThreadPlacement RtThread::start(const ThreadOptions& o, std::function<void()> body) {
   body_ = std::move(body);
+  nice_ = o.fifo_priority > 0 ? 0 : o.nice;
   pthread_attr_t attr;
   pthread_attr_init(&attr);
   pthread_attr_setstacksize(&attr, std::max<std::size_t>(o.stack_bytes, PTHREAD_STACK_MIN));

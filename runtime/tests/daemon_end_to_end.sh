@@ -9,10 +9,16 @@
 set -euo pipefail
 bin=$1 out=$2
 mkdir -p "$out"
+# rsrio-sim, rsrio-replay, rsrio-eval: from RSRIO_HELPER_BIN_DIR when set (sanitizer builds use the
+# release build's; ctest sets it), else next to rsriod.
+helpers=${RSRIO_HELPER_BIN_DIR:-$bin}
+for p in rsrio-sim rsrio-replay rsrio-eval; do
+  [ -x "$helpers/$p" ] || { echo "FAIL: $helpers/$p missing (build the release preset first: ./rsrio build)"; exit 1; }
+done
 domain=$((150 + $$ % 80))   # a domain of our own: parallel tests must not see each other
 fail() { echo "FAIL: $*"; for f in "$out"/*.log; do echo "--- $f"; tail -n 30 "$f"; done; exit 1; }
 
-"$bin/rsrio-sim" --scenario scenarios/test_tiny.yaml --out "$out/tiny.mcap" >"$out/sim.log" 2>&1 || fail "rsrio-sim"
+"$helpers/rsrio-sim" --scenario scenarios/test_tiny.yaml --out "$out/tiny.mcap" >"$out/sim.log" 2>&1 || fail "rsrio-sim"
 # test_tiny's rig: the radar is yawed 2 degrees on the rig.
 sed 's/^  radar_rpy_deg: .*/  radar_rpy_deg: [0.0, 0.0, 2.0]/' config/rsrio.yaml >"$out/tiny.yaml"
 
@@ -45,9 +51,9 @@ grep -q "recording finished" "$out/rsriod.log" || fail "rsriod did not log the e
 
 # The live path and the replay agree: same frames, same core, so the same accuracy against the
 # simulator's ground truth (the daemon's trajectory may lack the first poses, lost to discovery).
-"$bin/rsrio-replay" --input "$out/tiny.mcap" --out "$out/replay" --config "$out/tiny.yaml" >"$out/replay.log" 2>&1 \
+"$helpers/rsrio-replay" --input "$out/tiny.mcap" --out "$out/replay" --config "$out/tiny.yaml" >"$out/replay.log" 2>&1 \
   || fail "rsrio-replay"
-ape() { "$bin/rsrio-eval" --gt "$out/replay/ground_truth.tum" --est "$1" 2>&1 | awk '/^APE translation \(m\)/ { print $5 }'; }
+ape() { "$helpers/rsrio-eval" --gt "$out/replay/ground_truth.tum" --est "$1" 2>&1 | awk '/^APE translation \(m\)/ { print $5 }'; }
 ape_daemon=$(ape "$out/echo.tum")
 ape_replay=$(ape "$out/replay/frontend.tum")
 echo "APE translation RMSE: daemon over DDS $ape_daemon m, replay $ape_replay m"

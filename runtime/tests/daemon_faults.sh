@@ -2,11 +2,13 @@
 # rsriod under faults, against the board emulator over real UDP and DDS (separate processes):
 #  1. light packet loss (0.05 %: about one xWR1843 frame in four loses a packet): damaged frames are
 #     counted, flagged and skipped, the good ones give poses;
-#  2. the board emulator killed (radar unplugged): the status says the radar is stale and the IMU
+#  2. the IMU topic silent for 2 s while the radar streams: the status says "imu stale", then "imu
+#     ok" again, and poses keep coming after the IMU is back;
+#  3. the board emulator killed (radar unplugged): the status says the radar is stale and the IMU
 #     (which came with the board) stale too, within the timeouts;
-#  3. the emulator back with 10 % packet loss (every frame damaged): the daemon reconnects by itself,
+#  4. the emulator back with 10 % packet loss (every frame damaged): the daemon reconnects by itself,
 #     streams again, and its status says that the frames are damaged;
-#  4. SIGTERM: exit 0.
+#  5. SIGTERM: exit 0.
 # Addresses of its own (127.0.0.5 board, 127.0.0.6 host) so that it can run beside other tests.
 # usage: daemon_faults.sh BIN_DIR OUT_DIR
 set -euo pipefail
@@ -23,9 +25,10 @@ wait_for() { # pattern seconds
   for ((i = 0; i < $2 * 10; i++)); do status_has "$1" && return 0; sleep 0.1; done
   return 1
 }
-emulator() { # log loss
+emulator() { # log loss [emulator options...]
+  local log=$1 loss=$2; shift 2
   "$bin/rsrio-dca1000-emu" --scenario scenarios/demo_meeting_room.yaml --address 127.0.0.5 --host-data 127.0.0.6:4098 \
-    --loss "$2" --seed 7 --once --imu-topic /imu --domain "$domain" >"$out/$1" 2>&1 &
+    --loss "$loss" --seed 7 --once --imu-topic /imu --domain "$domain" "$@" >"$out/$log" 2>&1 &
   emu=$!
   pids+=($emu)
 }
@@ -43,8 +46,19 @@ pids+=($!)
 daemon=$!
 pids+=($daemon)
 sleep 1
-emulator emulator1.log 0.0005
+emulator emulator1.log 0.0005 --imu-gap 6:2
 wait_for "radar streaming imu ok" 30 || fail "the daemon never streamed"
+# Line number of the first status matching $1 after line $2 (0: none yet).
+line_after() { { tail -n +"$(($2 + 1))" "$out/echo.log" | grep -n "$1" || true; } | head -n 1 | cut -d: -f1 | awk -v b="$2" '{ print $1 + b }'; }
+for ((i = 0; i < 200; i++)); do stale_at=$(line_after "radar streaming imu stale" 0); [ -n "$stale_at" ] && break; sleep 0.1; done
+[ -n "$stale_at" ] || fail "the IMU went silent for 2 s, but the status never said 'imu stale' while the radar streamed"
+for ((i = 0; i < 100; i++)); do back_at=$(line_after "radar streaming imu ok" "$stale_at"); [ -n "$back_at" ] && break; sleep 0.1; done
+[ -n "$back_at" ] || fail "the IMU came back, but the status did not say 'imu ok' again"
+poses_back=$(wc -l <"$out/echo.tum")
+for ((i = 0; i < 100; i++)); do [ "$(wc -l <"$out/echo.tum")" -ge $((poses_back + 10)) ] && break; sleep 0.1; done
+[ "$(wc -l <"$out/echo.tum")" -ge $((poses_back + 10)) ] || fail "no poses after the IMU came back ($poses_back before)"
+kill -0 "$daemon" || fail "rsriod died when the IMU went silent"
+echo "IMU silent 2 s: status 'imu stale' while the radar streamed, then 'imu ok'; poses resumed ($poses_back -> $(wc -l <"$out/echo.tum"))"
 for ((i = 0; i < 300; i++)); do [ "$(wc -l <"$out/echo.tum")" -ge 30 ] && break; sleep 0.1; done
 kill -9 "$emu"   # mid-walk: pull the plug
 wait_for "radar stale" 10 || fail "no 'radar stale' in the status after the board went away"

@@ -6,6 +6,7 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <ostream>
 #include <stdexcept>
 
 namespace rsrio::splat {
@@ -111,6 +112,63 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.finish();
   validate(o, node.file());
   return o;
+}
+
+void print(std::ostream& out, const BackendOptions& o) {
+  const Eigen::Vector3d t = o.body_T_radar.translation();
+  const Eigen::Vector3d ypr = o.body_T_radar.linear().eulerAngles(2, 1, 0) / kDeg;  // R = Rz Ry Rx
+  auto stage = [&](const char* name, const StageOptions& s) {
+    out << "  " << name << ": {max_iterations: " << s.max_iterations << ", time_budget_s: " << s.time_budget_s
+        << ", convergence_rel: " << s.convergence_rel << ", convergence_patience: " << s.convergence_patience
+        << ", lr_final_factor: " << s.lr_final_factor << "}\n";
+  };
+  out << "backend:\n"
+      << "  body_T_radar: {translation_m: [" << t.x() << ", " << t.y() << ", " << t.z() << "], rpy_deg: [" << ypr[2]
+      << ", " << ypr[1] << ", " << ypr[0] << "]}\n"
+      << "  keyframe_distance_m: " << o.keyframe_distance_m << "\n"
+      << "  keyframe_angle_deg: " << o.keyframe_angle_deg << "\n"
+      << "  keyframe_time_s: " << o.keyframe_time_s << "\n"
+      << "  mapping_keyframes: " << o.mapping_keyframes << "\n"
+      << "  ba_window: " << o.ba_window << "\n"
+      << "  ba_radius_m: " << o.ba_radius_m << "\n"
+      << "  ba_sliding_keyframes: " << o.ba_sliding_keyframes << "\n"
+      << "  ba_max_keyframes: " << o.ba_max_keyframes << "\n";
+  stage("pose", o.pose);
+  stage("mapping", o.mapping);
+  stage("ba", o.ba);
+  out << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
+      << "  rd_loss: " << (o.rd_loss ? "true" : "false") << "\n"
+      << "  ra_weight: " << o.ra_weight << "\n"
+      << "  rd_weight: " << o.rd_weight << "\n"
+      << "  l1_weight: " << o.l1_weight << "\n"
+      << "  ssim_weight: " << o.ssim_weight << "\n"
+      << "  ssim_window: " << o.ssim_window << "\n"
+      << "  compression_floor: " << o.compression_floor << "\n"
+      << "  reference_percentile: " << o.reference_percentile << "\n"
+      << "  skip_near_range_bins: " << o.skip_near_range_bins << "\n"
+      << "  scale_regulariser_weight: " << o.scale_regulariser_weight << "\n"
+      << "  scale_regulariser_max_m: " << o.scale_regulariser_max_m << "\n"
+      << "  max_image_range_m: " << o.max_image_range_m << "\n"
+      << "  max_render_range_m: " << o.max_render_range_m << "\n"
+      << "  elevation_gain_sigma_sin: " << o.elevation_gain_sigma_sin << "\n"
+      << "  rd_kernel_sigma_bins: " << o.rd_kernel_sigma_bins << "\n"
+      << "  rd_window_bins: " << o.rd_window_bins << "\n"
+      << "  rd_gain: " << o.rd_gain << "\n"
+      << "  psf_range_window: " << o.psf_range_window << "\n"
+      << "  psf_angle_window: " << o.psf_angle_window << "\n"
+      << "  psf_doppler_window: " << o.psf_doppler_window << "\n"
+      << "  pose_dof: " << o.pose_dof << "\n"
+      << "  lr_pose_translation: " << o.lr_pose_translation << "\n"
+      << "  lr_pose_rotation: " << o.lr_pose_rotation << "\n"
+      << "  lr_means: " << o.lr_means << "\n"
+      << "  lr_rotations: " << o.lr_rotations << "\n"
+      << "  lr_log_scales: " << o.lr_log_scales << "\n"
+      << "  lr_log_returns: " << o.lr_log_returns << "\n"
+      << "  max_gaussians: " << o.max_gaussians << "\n"
+      << "  init_scale_m: " << o.init_scale_m << "\n"
+      << "  init_min_spacing_m: " << o.init_min_spacing_m << "\n"
+      << "  static_doppler_tolerance_mps: " << o.static_doppler_tolerance_mps << "\n"
+      << "  min_point_snr_db: " << o.min_point_snr_db << "\n";
 }
 
 void validate(const BackendOptions& o, const std::string& file) {
@@ -255,13 +313,35 @@ bool Backend::accept(const BackendFrame& f) const {
   return all_finite(f.dsp->ra) && all_finite(f.dsp->rd);
 }
 
+bool keyframe_due(const BackendOptions& o, double dt, const Eigen::Isometry3d& last_T_frame) {
+  const double angle = Eigen::AngleAxisd(last_T_frame.linear()).angle();
+  return last_T_frame.translation().norm() >= o.keyframe_distance_m || angle >= o.keyframe_angle_deg * kDeg ||
+         dt >= o.keyframe_time_s;
+}
+
+void take_frontend_options(BackendOptions& b, const rio::OdometryOptions& o) {
+  b.psf_range_window = o.dsp.range_window;
+  b.psf_doppler_window = o.dsp.doppler_window;
+  b.psf_angle_window = o.dsp.angle_window;
+  b.body_T_radar = Eigen::Isometry3d(o.frontend.body_T_radar.matrix());
+}
+
 bool Backend::is_keyframe(double t, const Eigen::Isometry3d& odom_T_body) const {
   if (keyframes_.empty()) return true;
   const Keyframe& last = keyframes_.back();
-  const Eigen::Isometry3d delta = last.odom_T_body.inverse() * odom_T_body;
-  const double angle = Eigen::AngleAxisd(delta.linear()).angle();
-  return delta.translation().norm() >= options_.keyframe_distance_m || angle >= options_.keyframe_angle_deg * kDeg ||
-         t - last.t >= options_.keyframe_time_s;
+  return keyframe_due(options_, t - last.t, last.odom_T_body.inverse() * odom_T_body);
+}
+
+void Backend::add_predecessor(double t, const gtsam::Pose3& odom_T_body) {
+  ++stats_.frames;
+  const Eigen::Isometry3d pose = to_isometry(odom_T_body);
+  if (!std::isfinite(t) || (have_previous_ && !(t > previous_t_)) || !pose.matrix().allFinite()) {
+    ++stats_.rejected_frames;
+    return;
+  }
+  have_previous_ = true;
+  previous_t_ = t;
+  previous_odom_T_body_ = pose;
 }
 
 bool Backend::add_frame(const BackendFrame& frame) {
@@ -492,6 +572,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   int calm = 0;
   bool first_loss = true;
   for (int it = 0; it < max_iterations; ++it) {
+    if (cancel_ != nullptr && cancel_->load(std::memory_order_relaxed)) break;
     if (stage.time_budget_s > 0 && seconds_since(start) > stage.time_budget_s) {
       ++st.budget_stops;
       break;

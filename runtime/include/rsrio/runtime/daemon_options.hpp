@@ -26,20 +26,30 @@ struct DaemonOptions {
   std::string status_topic = "/rsrio/status";
   std::string odom_frame_id = "odom";
   std::string base_frame_id = "base_link";
+  std::string map_frame_id = "map";  // the backend's frame (PoseStamped when backend is ba)
   int domain_id = 0;
   bool loopback_only = true;
+
+  // Backend: none (poses from the frontend) | ba (RadarSplat++ bundle adjustment on its own
+  // thread; its options are the `backend:` section). With ba, nav_msgs/Odometry stays in the odom
+  // frame (continuous, REP-105) and PoseStamped carries the corrected pose in map_frame_id.
+  std::string backend = "none";
 
   // Queues between the stages (explicit capacities; every drop is counted).
   int frame_queue = 4;      // capture -> RIO: raw frames (a frame pool of this size + 1)
   int imu_queue = 2048;     // IMU -> RIO: ~5 s at 400 Hz
   int pose_queue = 64;      // RIO -> publisher
   int event_queue = 256;    // RIO/capture -> log
+  int keyframe_queue = 2;   // RIO -> BA: keyframe candidates with their images (one being optimised
+                            // plus these; the BA thread takes ~0.4 s per keyframe)
 
   // Threads. Priority 0 = SCHED_OTHER; rt_required: refuse to run without SCHED_FIFO.
   int capture_priority = 80;
   int rio_priority = 70;
   std::vector<int> capture_cpus;
   std::vector<int> rio_cpus;
+  int ba_nice = 10;         // the BA thread: SCHED_OTHER at this nice value, below the RIO thread
+  std::vector<int> ba_cpus;
   int thread_stack_kib = 1024;
   bool lock_memory = true;
   bool rt_required = false;

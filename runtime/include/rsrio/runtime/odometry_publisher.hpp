@@ -26,6 +26,8 @@ namespace rsrio {
 struct PoseOutput {
   std::int64_t stamp_ns = 0;            // the radar frame's stamp (header.stamp), ns since the epoch
   std::int64_t frame_complete_mono_ns = 0;  // CLOCK_MONOTONIC when the frame was complete (latency)
+  std::int64_t rio_pickup_mono_ns = 0;  // when the RIO thread took the frame from its queue
+  std::int64_t rio_start_mono_ns = 0, rio_end_mono_ns = 0;  // its processing (after the IMU wait)
   std::uint64_t frame_number = 0;
   std::array<double, 3> position{};     // odom frame, m
   std::array<double, 4> orientation{0, 0, 0, 1};  // odom <- base, quaternion x y z w
@@ -34,6 +36,10 @@ struct PoseOutput {
   std::array<double, 36> pose_covariance{};   // ROS order: x y z, rot x y z; row-major
   std::array<double, 36> twist_covariance{};
   bool radar_used = false;              // this frame's ego-velocity entered the estimate
+  // With the backend: map_T_odom * the pose above (PoseStamped in map_frame_id).
+  bool has_map_pose = false;
+  std::array<double, 3> map_position{};
+  std::array<double, 4> map_orientation{0, 0, 0, 1};
 };
 
 struct PublisherOptions {
@@ -42,6 +48,7 @@ struct PublisherOptions {
   std::string status_topic = "/rsrio/status";
   std::string odom_frame_id = "odom";
   std::string base_frame_id = "base_link";
+  std::string map_frame_id = "map";
 };
 
 /// The messages as they go out (also used by tests and rsrio-echo to compare).

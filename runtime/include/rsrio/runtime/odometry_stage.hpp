@@ -21,12 +21,21 @@ class OdometryStage {
   /// One frame stamped `t` (s, radar clock). False while the frontend cannot start yet (no IMU).
   bool add_frame(double t, const AdcCube& cube, PoseOutput& out);
 
+  /// The last frame that gave a pose: its measurement time and the frontend's odom_T_body, and
+  /// the DSP's result (valid until the next add_frame): what the backend takes.
+  double last_t() const { return last_t_; }
+  const gtsam::Pose3& last_odom_T_body() const { return last_odom_T_body_; }
+  const DspResult& dsp_result() const { return odometry_.dsp().result(); }
+  const rio::Odometry& odometry() const { return odometry_; }
+
   std::uint64_t frames() const { return frames_; }
   std::uint64_t ego_rejected() const { return ego_rejected_; }
 
  private:
   rio::Odometry odometry_;
   rio::ImuSample last_imu_;
+  double last_t_ = 0;
+  gtsam::Pose3 last_odom_T_body_;
   std::uint64_t frames_ = 0;
   std::uint64_t ego_rejected_ = 0;
 };

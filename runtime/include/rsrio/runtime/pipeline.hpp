@@ -33,11 +33,26 @@
 #include "rsrio/runtime/daemon_options.hpp"
 #include "rsrio/runtime/odometry_publisher.hpp"
 #include "rsrio/runtime/odometry_stage.hpp"
+#include "rsrio/splat/backend.hpp"
 #include "rsrio_msgs/msg/Status.hpp"
 
 namespace rsrio {
 
 class DdsParticipant;
+
+/// Distribution of one timing over the run (ms).
+struct TimingSummary {
+  double p50 = 0, p99 = 0, max = 0, mean = 0;
+  std::uint64_t samples = 0;
+};
+
+/// The daemon's timings over the run (benchmarks; rsriod logs them at exit).
+struct PipelineTimings {
+  TimingSummary latency;     // frame complete -> odometry written to DDS
+  TimingSummary rio_pickup;  // frame complete -> taken by the RIO thread (scheduling + queue wait)
+  TimingSummary rio_busy;    // the RIO thread's work on the frame (decode, DSP, ego-velocity, frontend)
+  TimingSummary ba;          // bundle adjustment per keyframe (backend ba)
+};
 
 /// The pipeline's health at one moment (a copy; any thread).
 struct PipelineSnapshot {
@@ -55,7 +70,7 @@ class Pipeline {
   /// recording's first frame and must match). Throws ConfigError / std::runtime_error for a
   /// source that cannot be opened.
   Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
-           DdsParticipant& dds);
+           const splat::BackendOptions& backend, DdsParticipant& dds);
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
@@ -70,6 +85,8 @@ class Pipeline {
   bool stop();
 
   PipelineSnapshot snapshot() const;
+  /// After stop(): the timings of the run.
+  PipelineTimings timings() const;
   /// Called on the publisher thread for every pose after it was written (tests, rsriod progress).
   void on_pose(std::function<void(const PoseOutput&)> callback);
 

@@ -17,6 +17,7 @@ struct ThreadOptions {
   int fifo_priority = 0;         // 1..99: SCHED_FIFO; 0: SCHED_OTHER
   std::vector<int> cpus;         // empty: any CPU
   std::size_t stack_bytes = 512 * 1024;
+  int nice = 0;                  // SCHED_OTHER threads: their nice value (0..19: lower priority)
 };
 
 /// What the thread actually got. `note` says why it is not what was asked (once, for the log).
@@ -45,6 +46,7 @@ class RtThread {
   pthread_t handle_{};
   bool started_ = false;
   std::function<void()> body_;
+  int nice_ = 0;
 };
 
 /// mlockall(MCL_CURRENT | MCL_FUTURE). False with `error` filled when the limit forbids it.

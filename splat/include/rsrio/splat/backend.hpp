@@ -40,8 +40,10 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <iosfwd>
 #include <memory>
 #include <span>
 #include <string>
@@ -55,6 +57,7 @@
 #include "rsrio/common/options.hpp"
 #include "rsrio/common/radar_config.hpp"
 #include "rsrio/dsp/processor.hpp"
+#include "rsrio/rio/odometry.hpp"
 #include "rsrio/splat/adam.hpp"
 #include "rsrio/splat/gaussian_scene.hpp"
 #include "rsrio/splat/grid.hpp"
@@ -148,6 +151,18 @@ struct BackendOptions {
 ///                         lr_final_factor}
 BackendOptions load_backend_options(OptionsNode node);
 void validate(const BackendOptions& options, const std::string& file = "<built-in>");
+/// The options as a `backend:` YAML section (what programs print at start-up; loadable again).
+void print(std::ostream& out, const BackendOptions& options);
+
+/// What the backend takes from the frontend's options: the extrinsic, and the DSP's windows as
+/// the point spread it renders with. Every program that runs the backend behind the odometry
+/// calls this (rsrio-replay, rsriod).
+void take_frontend_options(BackendOptions& backend, const rio::OdometryOptions& odometry);
+
+/// Keyframe selection: a frame `dt` seconds and `last_T_frame` (body motion) after the last
+/// keyframe becomes one when any of the options' thresholds is reached. The backend decides with
+/// it; the daemon's RIO thread uses it to hand over only the frames the backend will take.
+bool keyframe_due(const BackendOptions& options, double dt, const Eigen::Isometry3d& last_T_frame);
 
 struct BackendFrame {
   double t = 0;                         // s, radar clock
@@ -246,6 +261,13 @@ class Backend {
   /// The first frame is never a keyframe (a keyframe needs the frontend's velocity, from its
   /// predecessor frame). A bad frame is counted (stats().rejected_frames) and ignored.
   bool add_frame(const BackendFrame& frame);
+  /// The frame just before the next add_frame() one, pose only: a caller that passes only
+  /// keyframe candidates (the daemon) gives their predecessors this way, for the frontend's
+  /// velocity at the candidate. Non-finite input is counted as rejected and ignored.
+  void add_predecessor(double t, const gtsam::Pose3& odom_T_body);
+  /// A flag another thread may set to end the running stages early (shutdown); null: none. The
+  /// keyframe being optimised keeps the iterations it has made.
+  void set_cancel_flag(const std::atomic<bool>* cancel) { cancel_ = cancel; }
 
   gtsam::Pose3 map_T_odom() const;
   /// map_T_odom * odom_T_body.
@@ -292,6 +314,7 @@ class Backend {
   bool have_previous_ = false;
   double previous_t_ = 0;
   Eigen::Isometry3d previous_odom_T_body_ = Eigen::Isometry3d::Identity();
+  const std::atomic<bool>* cancel_ = nullptr;
   // Scratch.
   SceneGradients gradients_;
 };

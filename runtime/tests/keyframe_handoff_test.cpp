@@ -1,0 +1,171 @@
+// KeyframeHandoff: the RIO thread hands the backend exactly the frames the backend's own rule makes
+// keyframes, each with its predecessor and its images intact; a full hand-over drops and counts,
+// and the next frame is a candidate again; two real threads pass candidates without tearing them
+// (this test runs under the thread sanitizer too).
+#include "rsrio/runtime/keyframe_handoff.hpp"
+
+#include <atomic>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include <catch2/catch_test_macros.hpp>
+
+namespace {
+
+constexpr std::size_t kRa = 64, kRd = 32, kPoints = 8;
+
+struct FakeFrame {
+  std::vector<float> ra, rd;
+  std::vector<rsrio::DspPoint> points;
+  rsrio::DspResult result() const {
+    rsrio::DspResult r;
+    r.ra = ra;
+    r.rd = rd;
+    r.points = points;
+    return r;
+  }
+};
+
+FakeFrame frame_filled_with(float value, std::size_t points = 3) {
+  FakeFrame f{std::vector<float>(kRa, value), std::vector<float>(kRd, -value), std::vector<rsrio::DspPoint>(points)};
+  for (auto& p : f.points) p.range_m = value;
+  return f;
+}
+
+Eigen::Isometry3d x_at(double x) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = x;
+  return T;
+}
+
+rsrio::splat::BackendOptions selection() {
+  rsrio::splat::BackendOptions o;
+  o.keyframe_distance_m = 0.4;
+  o.keyframe_angle_deg = 10;
+  o.keyframe_time_s = 1.0;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("keyframe hand-over selects with the backend's rule and carries the predecessor", "[runtime][keyframes]") {
+  rsrio::KeyframeHandoff handoff(8, kRa, kRd, kPoints, selection());
+  // 0.15 m per frame at 10 Hz: the first frame only starts (no velocity yet); the second is the
+  // first keyframe; then every third frame (0.45 m >= 0.4 m; 0.3 s < 1 s).
+  std::vector<int> queued;
+  for (int i = 0; i < 11; ++i) {
+    const FakeFrame f = frame_filled_with(static_cast<float>(i));
+    const auto r = handoff.offer(0.1 * i, x_at(0.15 * i), f.result());
+    if (r == rsrio::KeyframeHandoff::Offer::kQueued) queued.push_back(i);
+    else CHECK(r == rsrio::KeyframeHandoff::Offer::kNotDue);
+  }
+  CHECK(queued == std::vector<int>{1, 4, 7, 10});
+  for (int expected : queued) {
+    rsrio::KeyframeCandidate* c = handoff.next();
+    REQUIRE(c != nullptr);
+    CHECK(c->t == 0.1 * expected);
+    CHECK(c->has_previous);
+    CHECK(c->previous_t == 0.1 * (expected - 1));
+    CHECK(c->previous_odom_T_body.translation().x() == 0.15 * (expected - 1));
+    CHECK(c->ra.front() == static_cast<float>(expected));
+    CHECK(c->rd.back() == -static_cast<float>(expected));
+    REQUIRE(c->points.size() == 3);
+    CHECK(c->points[2].range_m == static_cast<float>(expected));
+    const rsrio::DspResult view = c->view();
+    CHECK(view.ra.size() == kRa);
+    CHECK(view.points.size() == 3);
+    handoff.release(c);
+  }
+  CHECK(handoff.next() == nullptr);
+  CHECK(handoff.dropped() == 0);
+
+  SECTION("a turn on the spot and a pause are keyframes too") {
+    rsrio::KeyframeHandoff h(4, kRa, kRd, kPoints, selection());
+    const FakeFrame f = frame_filled_with(1);
+    h.offer(0.0, x_at(0), f.result());
+    CHECK(h.offer(0.1, x_at(0), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    Eigen::Isometry3d turned = x_at(0);
+    turned.linear() = Eigen::AngleAxisd(11.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    CHECK(h.offer(0.2, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    CHECK(h.offer(0.3, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kNotDue);
+    CHECK(h.offer(1.25, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  }
+}
+
+TEST_CASE("keyframe hand-over drops when the BA thread is behind, and offers the next frame again",
+          "[runtime][keyframes]") {
+  rsrio::KeyframeHandoff handoff(1, kRa, kRd, kPoints, selection());
+  const FakeFrame f = frame_filled_with(1);
+  handoff.offer(0.0, x_at(0), f.result());
+  CHECK(handoff.offer(0.1, x_at(0.15), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  // Due (0.45 m) but the only slot is taken: dropped and counted.
+  CHECK(handoff.offer(0.4, x_at(0.6), f.result()) == rsrio::KeyframeHandoff::Offer::kDropped);
+  CHECK(handoff.dropped() == 1);
+  rsrio::KeyframeCandidate* c = handoff.next();
+  REQUIRE(c != nullptr);
+  handoff.release(c);
+  // The next frame is measured from the last frame HANDED OVER (0.15 m), so it is due at once.
+  const FakeFrame g = frame_filled_with(2);
+  CHECK(handoff.offer(0.5, x_at(0.65), g.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  c = handoff.next();
+  REQUIRE(c != nullptr);
+  CHECK(c->t == 0.5);
+  CHECK(c->previous_t == 0.4);  // its predecessor is the dropped frame, which is the frame before it
+  CHECK(c->ra[5] == 2.0f);
+}
+
+TEST_CASE("keyframe hand-over refuses images of the wrong size and cuts excess points", "[runtime][keyframes]") {
+  rsrio::KeyframeHandoff handoff(2, kRa, kRd, kPoints, selection());
+  const FakeFrame ok = frame_filled_with(1, kPoints + 5);
+  FakeFrame wrong = frame_filled_with(1);
+  wrong.ra.resize(kRa - 1);
+  handoff.offer(0.0, x_at(0), ok.result());
+  CHECK(handoff.offer(0.1, x_at(0.2), wrong.result()) == rsrio::KeyframeHandoff::Offer::kRejected);
+  CHECK(handoff.offer(0.2, x_at(0.3), ok.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  rsrio::KeyframeCandidate* c = handoff.next();
+  REQUIRE(c != nullptr);
+  CHECK(c->points.size() == kPoints);
+  CHECK(c->points_cut == 5);
+}
+
+TEST_CASE("keyframe hand-over between two threads: every candidate arrives whole or is counted as dropped",
+          "[runtime][keyframes][concurrency]") {
+  constexpr int kFrames = 3000;
+  rsrio::KeyframeHandoff handoff(2, kRa, kRd, kPoints, selection());
+  std::atomic<bool> producer_done{false};
+  std::atomic<int> queued{0};
+  std::atomic<int> torn{0};
+  std::atomic<int> received{0};
+  std::thread consumer([&] {
+    while (true) {
+      if (rsrio::KeyframeCandidate* c = handoff.next()) {
+        const float v = c->ra.front();
+        for (float x : c->ra) torn += x != v;
+        for (float x : c->rd) torn += x != -v;
+        torn += std::lround(c->t * 10) != std::lround(v);  // the frame index the producer wrote
+        ++received;
+        handoff.release(c);
+        continue;
+      }
+      if (producer_done.load()) break;
+      std::this_thread::yield();
+    }
+  });
+  std::thread producer([&] {
+    FakeFrame f = frame_filled_with(0);
+    for (int i = 0; i < kFrames; ++i) {
+      std::fill(f.ra.begin(), f.ra.end(), static_cast<float>(i));
+      std::fill(f.rd.begin(), f.rd.end(), -static_cast<float>(i));
+      // 0.5 m per frame: every frame after the first is due.
+      if (handoff.offer(0.1 * i, x_at(0.5 * i), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued) ++queued;
+    }
+    producer_done = true;
+  });
+  producer.join();
+  consumer.join();
+  CHECK(torn == 0);
+  CHECK(received == queued);
+  CHECK(queued + static_cast<int>(handoff.dropped()) == kFrames - 1);
+  CHECK(queued > 0);
+}
