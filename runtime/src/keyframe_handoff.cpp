@@ -4,14 +4,6 @@
 
 namespace rsrio {
 
-DspResult KeyframeCandidate::view() const {
-  DspResult r;
-  r.ra = ra;
-  r.rd = rd;
-  r.points = points;
-  return r;
-}
-
 KeyframeHandoff::KeyframeHandoff(std::size_t capacity, std::size_t ra_size, std::size_t rd_size,
                                  std::size_t max_points, const splat::BackendOptions& selection)
     : selection_(selection), slots_(capacity), queue_(capacity), free_(capacity) {

@@ -41,9 +41,11 @@ sleep 1.5
 sleep 1
 kill -INT "$echo_pid"; wait "$echo_pid" || fail "rsrio-echo exited with an error"
 grep -q "^backend:" "$out/rsriod.out" || fail "rsriod did not print its backend options"
-keyframes=$(grep -o 'keyframes [0-9][0-9]*' "$out/echo.log" | tail -n 1 | cut -d' ' -f2)
-gaussians=$(grep -o 'gaussians [0-9]*' "$out/echo.log" | tail -n 1 | cut -d' ' -f2)
-ba_ms=$(grep -o ' ba [0-9.]* ms' "$out/echo.log" | tail -n 1 | cut -d' ' -f3)
+# The last value of "NAME <number>" in a status log (empty when no status carried it yet).
+last_value() { { grep -o "$1 [0-9][0-9.]*" "$2" || true; } | tail -n 1 | awk '{ print $NF }'; }
+keyframes=$(last_value keyframes "$out/echo.log")
+gaussians=$(last_value gaussians "$out/echo.log")
+ba_ms=$(last_value ' ba' "$out/echo.log")
 echo "status: $keyframes keyframes, $gaussians Gaussians, last BA $ba_ms ms"
 [ "${keyframes:-0}" -ge 3 ] || fail "the status reports ${keyframes:-no} keyframes"
 [ "${gaussians:-0}" -ge 10 ] || fail "the status reports ${gaussians:-no} Gaussians"
@@ -60,11 +62,12 @@ if [ "$accuracy" = "--accuracy" ]; then
   a_replay=$(ape "$gt" "$out/replay/estimate.tum"); a_front=$(ape "$gt" "$out/replay/frontend.tum")
   echo "APE translation RMSE: daemon map $a_map m, daemon odom $a_odom m; replay ba $a_replay m, replay frontend $a_front m"
   # The live path and the replay agree. BA in the daemon runs against the clock (time budgets, and
-  # a keyframe may be dropped when it is behind), the replay does not: close, not equal. Whether
-  # the backend improves on the frontend is measured on the scenarios (rsrio-eval --table), not
-  # here: test_tiny's frontend is already within 2 cm.
-  awk -v m="$a_map" -v r="$a_replay" 'BEGIN { d = m - r; exit !(m != "" && r != "" && d < 0.03 && d > -0.03) }' \
-    || fail "daemon ($a_map m) and replay ($a_replay m) with BA disagree by more than 3 cm"
+  # a keyframe is dropped when the BA thread is behind, more so on a loaded machine), the replay
+  # does not: close, not equal (within 3 cm or half the replay's APE). Whether the backend improves
+  # on the frontend is measured on the scenarios (rsrio-eval --table), not here.
+  awk -v m="$a_map" -v r="$a_replay" 'BEGIN { d = m - r; if (d < 0) d = -d; tol = 0.5 * r; if (tol < 0.03) tol = 0.03
+                                             exit !(m != "" && r != "" && d <= tol) }' \
+    || fail "daemon ($a_map m) and replay ($a_replay m) with BA disagree by more than max(3 cm, half the replay's APE)"
   awk -v o="$a_odom" -v f="$a_front" 'BEGIN { d = o - f; exit !(o != "" && f != "" && d < 0.01 && d > -0.01) }' \
     || fail "the daemon's odometry ($a_odom m) and the replay's frontend ($a_front m) disagree: BA disturbed the RIO thread"
 fi
@@ -78,7 +81,7 @@ echo_pid=$!
   >"$out/rsriod_term.out" 2>"$out/rsriod_term.log" &
 pid=$!
 for ((i = 0; i < 600; i++)); do
-  k=$(grep -o 'keyframes [0-9][0-9]*' "$out/echo_term.log" | tail -n 1 | cut -d' ' -f2)
+  k=$(last_value keyframes "$out/echo_term.log")
   [ "${k:-0}" -ge 2 ] && break
   kill -0 "$pid" 2>/dev/null || fail "rsriod ended before SIGTERM"
   sleep 0.1

@@ -15,17 +15,7 @@ namespace {
 
 constexpr std::size_t kRa = 64, kRd = 32, kPoints = 8;
 
-struct FakeFrame {
-  std::vector<float> ra, rd;
-  std::vector<rsrio::DspPoint> points;
-  rsrio::DspResult result() const {
-    rsrio::DspResult r;
-    r.ra = ra;
-    r.rd = rd;
-    r.points = points;
-    return r;
-  }
-};
+using FakeFrame = rsrio::DspImages;
 
 FakeFrame frame_filled_with(float value, std::size_t points = 3) {
   FakeFrame f{std::vector<float>(kRa, value), std::vector<float>(kRd, -value), std::vector<rsrio::DspPoint>(points)};
@@ -56,7 +46,7 @@ TEST_CASE("keyframe hand-over selects with the backend's rule and carries the pr
   std::vector<int> queued;
   for (int i = 0; i < 11; ++i) {
     const FakeFrame f = frame_filled_with(static_cast<float>(i));
-    const auto r = handoff.offer(0.1 * i, x_at(0.15 * i), f.result());
+    const auto r = handoff.offer(0.1 * i, x_at(0.15 * i), f.view());
     if (r == rsrio::KeyframeHandoff::Offer::kQueued) queued.push_back(i);
     else CHECK(r == rsrio::KeyframeHandoff::Offer::kNotDue);
   }
@@ -83,13 +73,13 @@ TEST_CASE("keyframe hand-over selects with the backend's rule and carries the pr
   SECTION("a turn on the spot and a pause are keyframes too") {
     rsrio::KeyframeHandoff h(4, kRa, kRd, kPoints, selection());
     const FakeFrame f = frame_filled_with(1);
-    h.offer(0.0, x_at(0), f.result());
-    CHECK(h.offer(0.1, x_at(0), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    h.offer(0.0, x_at(0), f.view());
+    CHECK(h.offer(0.1, x_at(0), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
     Eigen::Isometry3d turned = x_at(0);
     turned.linear() = Eigen::AngleAxisd(11.0 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    CHECK(h.offer(0.2, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
-    CHECK(h.offer(0.3, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kNotDue);
-    CHECK(h.offer(1.25, turned, f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    CHECK(h.offer(0.2, turned, f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    CHECK(h.offer(0.3, turned, f.view()) == rsrio::KeyframeHandoff::Offer::kNotDue);
+    CHECK(h.offer(1.25, turned, f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
   }
 }
 
@@ -97,17 +87,17 @@ TEST_CASE("keyframe hand-over drops when the BA thread is behind, and offers the
           "[runtime][keyframes]") {
   rsrio::KeyframeHandoff handoff(1, kRa, kRd, kPoints, selection());
   const FakeFrame f = frame_filled_with(1);
-  handoff.offer(0.0, x_at(0), f.result());
-  CHECK(handoff.offer(0.1, x_at(0.15), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  handoff.offer(0.0, x_at(0), f.view());
+  CHECK(handoff.offer(0.1, x_at(0.15), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
   // Due (0.45 m) but the only slot is taken: dropped and counted.
-  CHECK(handoff.offer(0.4, x_at(0.6), f.result()) == rsrio::KeyframeHandoff::Offer::kDropped);
+  CHECK(handoff.offer(0.4, x_at(0.6), f.view()) == rsrio::KeyframeHandoff::Offer::kDropped);
   CHECK(handoff.dropped() == 1);
   rsrio::KeyframeCandidate* c = handoff.next();
   REQUIRE(c != nullptr);
   handoff.release(c);
   // The next frame is measured from the last frame HANDED OVER (0.15 m), so it is due at once.
   const FakeFrame g = frame_filled_with(2);
-  CHECK(handoff.offer(0.5, x_at(0.65), g.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  CHECK(handoff.offer(0.5, x_at(0.65), g.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
   c = handoff.next();
   REQUIRE(c != nullptr);
   CHECK(c->t == 0.5);
@@ -120,9 +110,9 @@ TEST_CASE("keyframe hand-over refuses images of the wrong size and cuts excess p
   const FakeFrame ok = frame_filled_with(1, kPoints + 5);
   FakeFrame wrong = frame_filled_with(1);
   wrong.ra.resize(kRa - 1);
-  handoff.offer(0.0, x_at(0), ok.result());
-  CHECK(handoff.offer(0.1, x_at(0.2), wrong.result()) == rsrio::KeyframeHandoff::Offer::kRejected);
-  CHECK(handoff.offer(0.2, x_at(0.3), ok.result()) == rsrio::KeyframeHandoff::Offer::kQueued);
+  handoff.offer(0.0, x_at(0), ok.view());
+  CHECK(handoff.offer(0.1, x_at(0.2), wrong.view()) == rsrio::KeyframeHandoff::Offer::kRejected);
+  CHECK(handoff.offer(0.2, x_at(0.3), ok.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
   rsrio::KeyframeCandidate* c = handoff.next();
   REQUIRE(c != nullptr);
   CHECK(c->points.size() == kPoints);
@@ -158,7 +148,7 @@ TEST_CASE("keyframe hand-over between two threads: every candidate arrives whole
       std::fill(f.ra.begin(), f.ra.end(), static_cast<float>(i));
       std::fill(f.rd.begin(), f.rd.end(), -static_cast<float>(i));
       // 0.5 m per frame: every frame after the first is due.
-      if (handoff.offer(0.1 * i, x_at(0.5 * i), f.result()) == rsrio::KeyframeHandoff::Offer::kQueued) ++queued;
+      if (handoff.offer(0.1 * i, x_at(0.5 * i), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued) ++queued;
     }
     producer_done = true;
   });

@@ -39,18 +39,9 @@ Eigen::Isometry3d isometry(const gtsam::Pose3& p) {
 }
 
 // One processed frame, kept (the DSP's result views are only valid until its next frame).
-struct Frame {
+struct Frame : rsrio::DspImages {
   double t = 0;                       // middle of the frame's chirps (what the images show)
   Eigen::Isometry3d world_T_body;     // ground truth at t
-  std::vector<float> ra, rd;
-  std::vector<rsrio::DspPoint> points;
-  rsrio::DspResult view() const {
-    rsrio::DspResult r;
-    r.ra = ra;
-    r.rd = rd;
-    r.points = points;
-    return r;
-  }
 };
 
 struct Stretch {

@@ -56,17 +56,7 @@ GaussianScene make_world(std::uint64_t seed) {
   return scene;
 }
 
-struct SyntheticFrame {
-  std::vector<float> ra, rd;
-  std::vector<rsrio::DspPoint> points;
-  rsrio::DspResult view() const {
-    rsrio::DspResult r;
-    r.ra = ra;
-    r.rd = rd;
-    r.points = points;
-    return r;
-  }
-};
+using SyntheticFrame = rsrio::DspImages;
 
 // What the DSP would give for the world seen from world_T_radar moving with `velocity` (radar
 // frame): rendered RA, RD, and one point per visible Gaussian.

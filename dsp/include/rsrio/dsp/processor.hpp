@@ -171,6 +171,21 @@ struct DspResult {
   std::size_t frames = 0;                         // frames processed so far
 };
 
+/// An owning copy of a frame's images and points: DspResult only views the processor's buffers,
+/// valid until its next frame. What keeps a frame for later (the daemon's keyframe hand-over,
+/// tests); view() is a DspResult over the copy.
+struct DspImages {
+  std::vector<float> ra, rd;
+  std::vector<DspPoint> points;
+  DspResult view() const {
+    DspResult r;
+    r.ra = ra;
+    r.rd = rd;
+    r.points = points;
+    return r;
+  }
+};
+
 class DspProcessor {
  public:
   /// Validates `options` and makes the plans. Throws ConfigError for options that do not fit

@@ -24,18 +24,14 @@
 
 namespace rsrio {
 
-struct KeyframeCandidate {
+/// The images and points (DspImages, sized once) of a frame the backend will make a keyframe.
+struct KeyframeCandidate : DspImages {
   double t = 0;                   // the frame's measurement time (radar clock)
   Eigen::Isometry3d odom_T_body = Eigen::Isometry3d::Identity();
   double previous_t = 0;          // the frame before it (valid when has_previous)
   Eigen::Isometry3d previous_odom_T_body = Eigen::Isometry3d::Identity();
   bool has_previous = false;
-  std::vector<float> ra, rd;      // sized once
-  std::vector<DspPoint> points;   // capacity reserved once; size = this frame's points
-  std::size_t points_cut = 0;     // points beyond the capacity (not copied)
-
-  /// A DspResult viewing this candidate's images and points (what splat::Backend reads).
-  DspResult view() const;
+  std::size_t points_cut = 0;     // points beyond the reserved capacity (not copied)
 };
 
 class KeyframeHandoff {
