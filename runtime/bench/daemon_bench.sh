@@ -79,7 +79,7 @@ kill -INT "$echo_pid"; wait "$echo_pid" || true
 hz=$(getconf CLK_TCK)
 wall=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.1f", b - a }')
 pick() { grep "$1" "$out/rsriod.log" | tail -n 1 | sed -n "s/.*$2 \([0-9.]*\) ms.*/\1/p"; }
-frames=$(grep -o 'frames [0-9]*' "$out/echo.log" | tail -n 1 | cut -d' ' -f2)
+frames=$(grep -o ' frames [0-9]*' "$out/echo.log" | tail -n 1 | awk '{ print $2 }')
 dropped=$(grep -o 'frames [0-9]* damaged [0-9]* dropped [0-9]*' "$out/echo.log" | tail -n 1 | awk '{ print $NF }')
 kf_dropped=$(grep -o 'keyframes-queue drops [0-9]*' "$out/echo.log" | tail -n 1 | awk '{ print $NF }')
 keyframes=$(grep -o 'keyframes [0-9]* gaussians' "$out/echo.log" | tail -n 1 | awk '{ print $2 }')
@@ -101,8 +101,9 @@ while read -r name ticks; do
 done <<<"$threads_cpu"
 printf '| %-46s | %s MB (RSS sampled: %s MB) |\n' "peak memory VmHWM" "$(awk -v k="${peak_hwm:-0}" 'BEGIN { printf "%.1f", k / 1024 }')" "$(awk -v k="$peak_rss" 'BEGIN { printf "%.1f", k / 1024 }')"
 # Ground truth (and the frontend's replay for comparison) from the recording.
-gt=$out/replay/ground_truth.tum
-[ -s "$gt" ] || "$bin/rsrio-replay" --input "$rec" --out "$out/replay" --config "$out/estimator.yaml" >/dev/null 2>&1 || true
+gt=$out/replay_${laps}laps/ground_truth.tum
+[ -s "$gt" ] || "$bin/rsrio-replay" --input "$rec" --out "$out/replay_${laps}laps" --config "$out/estimator.yaml" \
+  >/dev/null 2>&1 || true
 if [ -s "$gt" ]; then
   ape() { "$bin/rsrio-eval" --gt "$gt" --est "$1" 2>&1 | awk '/^APE translation \(m\)/ { print $5 }'; }
   printf '| %-46s | map %s m, odom %s m |\n' "APE translation RMSE (received over DDS)" "$(ape "$out/map.tum")" "$(ape "$out/odom.tum")"
