@@ -1,5 +1,4 @@
 // Number arguments of the programs' command lines: the whole text must be the number.
-// (tools/rsrio_sim.cpp has its own copies of the first two; they can move here.)
 #pragma once
 
 #include <cmath>

@@ -19,6 +19,7 @@
 
 #include <Eigen/Geometry>
 
+#include "cli_numbers.hpp"
 #include "rsrio/common/cli.hpp"
 #include "rsrio/common/log.hpp"
 #include "rsrio/common/options.hpp"
@@ -29,31 +30,14 @@
 
 namespace {
 
+using rsrio::tools::parse_double;
+using rsrio::tools::parse_u64;
+
 constexpr const char* kProgram = "rsrio-sim";
 
 int usage_error(const std::string& message) {
   std::cerr << kProgram << ": error: " << message << "\n(see " << kProgram << " --help)\n";
   return rsrio::kExitUsage;
-}
-
-bool parse_double(const std::string& text, double& out) {
-  try {
-    std::size_t used = 0;
-    out = std::stod(text, &used);
-    return used == text.size() && std::isfinite(out);
-  } catch (const std::exception&) {
-    return false;
-  }
-}
-
-bool parse_u64(const std::string& text, std::uint64_t& out) {
-  if (text.empty() || text.find_first_not_of("0123456789") != std::string::npos) return false;
-  try {
-    out = std::stoull(text);
-    return true;
-  } catch (const std::exception&) {
-    return false;
-  }
 }
 
 // Scenario seconds -> nanoseconds since the epoch.
