@@ -7,7 +7,7 @@
 //                    frontend's: origin at the first state, yaw 0 there)
 // DIR/estimate.tum   the pose after the backend (= frontend.tum with --backend none)
 // DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present
-// DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99)
+// DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
 // With --backend ba also the pictures (SPEC Sec. 11):
 // DIR/keyframe_NNNN_ra.png, _rd.png  measured | rendered RA and RD of a few keyframes (--pictures N)
 // DIR/map.png        the Gaussian map from above with the frontend's and the backend's trajectories
@@ -32,6 +32,8 @@
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <sys/resource.h>
 
 #include "rsrio/common/cli.hpp"
 #include "rsrio/common/log.hpp"
@@ -138,6 +140,12 @@ class BaBackend final : public Backend {
   std::optional<rsrio::splat::Backend> backend_;
 };
 
+// The process's peak resident memory (ru_maxrss), MB: the replay's memory figure.
+double peak_memory_mb() {
+  struct rusage usage {};
+  return getrusage(RUSAGE_SELF, &usage) == 0 ? usage.ru_maxrss / 1024.0 : 0.0;
+}
+
 // The backend's pictures: measured | rendered RA and RD of `count` keyframes spread over the run,
 // and the Gaussian map from above with the trajectories (ground truth aligned to the estimate).
 void write_backend_pictures(rsrio::splat::Backend& backend, std::uint64_t count, const std::string& out_dir,
@@ -149,6 +157,7 @@ void write_backend_pictures(rsrio::splat::Backend& backend, std::uint64_t count,
   for (std::uint64_t i = 0; i < count && n > 0; ++i) {
     const std::size_t k = count == 1 ? n - 1 : static_cast<std::size_t>(i * (n - 1) / (count - 1));
     if (k == previous) continue;  // fewer keyframes than pictures asked for
+    if (!backend.keyframes()[k].has_images()) continue;  // evicted (max_keyframe_images)
     previous = k;
     char prefix[32];
     std::snprintf(prefix, sizeof prefix, "keyframe_%04zu", k);
@@ -420,6 +429,7 @@ int main(int argc, char** argv) {
     js << "},\n  \"recording_damage\": " << (damage.empty() ? "null" : json_string(damage)) << ",\n"
        << "  \"recording_seconds\": " << (last_t - first_t) << ",\n"
        << "  \"wall_seconds\": " << wall << ",\n"
+       << "  \"peak_memory_mb\": " << peak_memory_mb() << ",\n"
        << "  \"timings_ms\": {\n";
     timing("dsp", t_dsp, false);
     timing("ego_velocity", t_ego, false);
@@ -432,7 +442,8 @@ int main(int argc, char** argv) {
       js << ",\n  \"backend_stats\": {\"keyframes\": " << st.keyframes << ", \"gaussians\": " << st.gaussians
          << ", \"nan_guard_hits\": " << st.nan_guard_hits << ", \"rejected_frames\": " << st.rejected_frames
          << ", \"pose_s\": " << st.pose.total_s << ", \"mapping_s\": " << st.mapping.total_s
-         << ", \"ba_s\": " << st.ba.total_s << ", \"ba_budget_stops\": " << st.ba.budget_stops << "}";
+         << ", \"ba_s\": " << st.ba.total_s << ", \"ba_budget_stops\": " << st.ba.budget_stops
+         << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted << "}";
     }
     js << "\n}\n";
     if (!js) throw std::runtime_error(path("stats.json") + ": write failed");

@@ -77,6 +77,8 @@ BackendOptions load_backend_options(OptionsNode node) {
   load_stage(node.child("mapping"), o.mapping);
   load_stage(node.child("ba"), o.ba);
   node.read("first_keyframe_mapping_iterations", o.first_keyframe_mapping_iterations, {0, 100000});
+  node.read("pose_coverage_mask", o.pose_coverage_mask);
+  node.read("coverage_margin_bins", o.coverage_margin_bins, {0, 1000});
   node.read("rd_loss", o.rd_loss);
   node.read("ra_weight", o.ra_weight, {0.0, 1e6});
   node.read("rd_weight", o.rd_weight, {0.0, 1e6});
@@ -98,6 +100,11 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read_choice("psf_angle_window", o.psf_angle_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_doppler_window", o.psf_doppler_window, {"none", "hann", "hamming", "blackman"});
   node.read("pose_dof", o.pose_dof, {3, 6});
+  node.read("level_floor", o.level_floor);
+  node.read("odometry_prior", o.odometry_prior);
+  node.read("odometry_prior_sigma_m", o.odometry_prior_sigma_m, {1e-6, 100.0});
+  node.read("odometry_prior_sigma_deg", o.odometry_prior_sigma_deg, {1e-6, 180.0});
+  node.read("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_deg, {0.0, 180.0});
   node.read("lr_pose_translation", o.lr_pose_translation, {0.0, 10.0});
   node.read("lr_pose_rotation", o.lr_pose_rotation, {0.0, 10.0});
   node.read("lr_means", o.lr_means, {0.0, 10.0});
@@ -105,6 +112,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("lr_log_scales", o.lr_log_scales, {0.0, 10.0});
   node.read("lr_log_returns", o.lr_log_returns, {0.0, 10.0});
   node.read("max_gaussians", o.max_gaussians, {1, 100'000'000});
+  node.read("max_keyframe_images", o.max_keyframe_images, {1, 100'000'000});
   node.read("init_scale_m", o.init_scale_m, {1e-4, 10.0});
   node.read("init_min_spacing_m", o.init_min_spacing_m, {0.0, 10.0});
   node.read("static_doppler_tolerance_mps", o.static_doppler_tolerance_mps, {0.0, 100.0});
@@ -137,6 +145,8 @@ void print(std::ostream& out, const BackendOptions& o) {
   stage("mapping", o.mapping);
   stage("ba", o.ba);
   out << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
+      << "  pose_coverage_mask: " << (o.pose_coverage_mask ? "true" : "false") << "\n"
+      << "  coverage_margin_bins: " << o.coverage_margin_bins << "\n"
       << "  rd_loss: " << (o.rd_loss ? "true" : "false") << "\n"
       << "  ra_weight: " << o.ra_weight << "\n"
       << "  rd_weight: " << o.rd_weight << "\n"
@@ -158,6 +168,11 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  psf_angle_window: " << o.psf_angle_window << "\n"
       << "  psf_doppler_window: " << o.psf_doppler_window << "\n"
       << "  pose_dof: " << o.pose_dof << "\n"
+      << "  level_floor: " << (o.level_floor ? "true" : "false") << "\n"
+      << "  odometry_prior: " << (o.odometry_prior ? "true" : "false") << "\n"
+      << "  odometry_prior_sigma_m: " << o.odometry_prior_sigma_m << "\n"
+      << "  odometry_prior_sigma_deg: " << o.odometry_prior_sigma_deg << "\n"
+      << "  odometry_yaw_sigma_deg: " << o.odometry_yaw_sigma_deg << "\n"
       << "  lr_pose_translation: " << o.lr_pose_translation << "\n"
       << "  lr_pose_rotation: " << o.lr_pose_rotation << "\n"
       << "  lr_means: " << o.lr_means << "\n"
@@ -165,6 +180,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  lr_log_scales: " << o.lr_log_scales << "\n"
       << "  lr_log_returns: " << o.lr_log_returns << "\n"
       << "  max_gaussians: " << o.max_gaussians << "\n"
+      << "  max_keyframe_images: " << o.max_keyframe_images << "\n"
       << "  init_scale_m: " << o.init_scale_m << "\n"
       << "  init_min_spacing_m: " << o.init_min_spacing_m << "\n"
       << "  static_doppler_tolerance_mps: " << o.static_doppler_tolerance_mps << "\n"
@@ -185,6 +201,10 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (!(o.reference_percentile > 0 && o.reference_percentile <= 100)) fail("reference_percentile", "a number in (0, 100]");
   if (!(o.init_scale_m > 0)) fail("init_scale_m", "a number > 0");
   if (o.max_gaussians < 1) fail("max_gaussians", "an integer >= 1");
+  if (o.max_keyframe_images < std::max(o.mapping_keyframes, o.ba_max_keyframes))
+    fail("max_keyframe_images", "an integer >= mapping_keyframes and ba_max_keyframes (those keep their images)");
+  if (o.odometry_prior && !(o.odometry_prior_sigma_m > 0)) fail("odometry_prior_sigma_m", "a number > 0");
+  if (o.odometry_prior && !(o.odometry_prior_sigma_deg > 0)) fail("odometry_prior_sigma_deg", "a number > 0");
   if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
   for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
     const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";
@@ -370,6 +390,8 @@ bool Backend::add_frame(const BackendFrame& frame) {
   kf.t = frame.t;
   kf.odom_T_body = odom_T_body;
   kf.world_T_radar = map_T_odom_ * odom_T_radar;
+  if (options_.level_floor && !keyframes_.empty())
+    kf.world_T_radar.translation().z() = keyframes_.front().world_T_radar.translation().z();
   // Row-major [range][column]: the first range_bins rows are the cut grid's image.
   kf.ra = Eigen::Map<const Image<float>>(frame.dsp->ra.data(), grid_.range_bins, grid_.azimuth_bins);
   kf.rd = Eigen::Map<const Image<float>>(frame.dsp->rd.data(), grid_.range_bins, grid_.doppler_bins);
@@ -399,8 +421,17 @@ bool Backend::add_frame(const BackendFrame& frame) {
     first_mapping.time_budget_s = 0;
     run_stage({k}, {}, true, false, first_mapping, options_.first_keyframe_mapping_iterations, stats_.mapping);
   } else {
-    // 1. pose refinement of the newest keyframe (RA + RD), the map fixed.
-    run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
+    // 1. pose refinement of the newest keyframe (RA + RD), the map fixed; on what the map covers.
+    if (options_.pose_coverage_mask) {
+      Keyframe& newest = keyframes_[k];
+      Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
+      mask_uncovered_targets(newest);
+      run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
+      newest.ra_target = std::move(ra_target);
+      newest.rd_target = std::move(rd_target);
+    } else {
+      run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
+    }
     // New Gaussians from this keyframe's points, placed with the refined pose.
     add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
     // 2. mapping over the last N_map keyframes (RA only), poses fixed.
@@ -417,6 +448,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
     run_stage(window, ba_poses, true, true, options_.ba, options_.ba.max_iterations, stats_.ba);
   }
   cleanup_scene();
+  evict_keyframe_images();
   update_correction();
   stats_.gaussians = scene_.size();
   return true;
@@ -491,19 +523,47 @@ void Backend::add_gaussians(const Keyframe& kf, std::span<const rsrio::DspPoint>
     scene_adam_.remap_scene(scene_.enforce_cap(kf.world_T_radar.translation()));
 }
 
-std::vector<std::size_t> Backend::ba_window() const {
-  const std::size_t n = keyframes_.size() - 1;
+std::vector<std::size_t> radius_window(std::span<const Eigen::Vector3d> positions, double radius_m, std::size_t cap) {
   std::vector<std::size_t> w;
-  if (options_.ba_window == "sliding") {
-    const auto count = static_cast<std::size_t>(options_.ba_sliding_keyframes);
-    for (std::size_t i = keyframes_.size() > count ? keyframes_.size() - count : 0; i <= n; ++i) w.push_back(i);
-  } else {
-    const Eigen::Vector3d c = keyframes_[n].world_T_radar.translation();
-    for (std::size_t i = 0; i <= n; ++i)
-      if ((keyframes_[i].world_T_radar.translation() - c).norm() <= options_.ba_radius_m) w.push_back(i);
-  }
+  if (positions.empty() || cap == 0) return w;
+  const Eigen::Vector3d c = positions.back();
+  auto distance2 = [&](std::size_t i) { return (positions[i] - c).squaredNorm(); };
+  for (std::size_t i = 0; i < positions.size(); ++i)
+    if (distance2(i) <= radius_m * radius_m) w.push_back(i);
+  if (w.size() <= cap) return w;
+  // More keyframes within the radius than the bound: the newest half, and the rest nearest to
+  // the newest keyframe among the older ones. On a revisit those are the keyframes of the earlier
+  // pass, whose images tie the new poses to the map they built (the loop closure); keeping only
+  // the newest ones would let the map follow the frontend's drift.
+  const std::size_t newest = (cap + 1) / 2;
+  std::vector<std::size_t> older(w.begin(), w.end() - static_cast<std::ptrdiff_t>(newest));
+  std::stable_sort(older.begin(), older.end(), [&](std::size_t a, std::size_t b) { return distance2(a) < distance2(b); });
+  older.resize(cap - newest);
+  std::vector<std::size_t> out(w.end() - static_cast<std::ptrdiff_t>(newest), w.end());
+  out.insert(out.end(), older.begin(), older.end());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<std::size_t> Backend::ba_window() const {
   const auto cap = static_cast<std::size_t>(options_.ba_max_keyframes);
-  if (w.size() > cap) w.erase(w.begin(), w.end() - static_cast<std::ptrdiff_t>(cap));
+  if (options_.ba_window == "sliding") {
+    const std::size_t count = std::min(cap, static_cast<std::size_t>(options_.ba_sliding_keyframes));
+    std::vector<std::size_t> w;
+    for (std::size_t i = keyframes_.size() > count ? keyframes_.size() - count : 0; i < keyframes_.size(); ++i)
+      w.push_back(i);
+    return w;
+  }
+  // Keyframes without images (evicted) take no part.
+  std::vector<std::size_t> index;
+  std::vector<Eigen::Vector3d> positions;
+  for (std::size_t i = 0; i < keyframes_.size(); ++i)
+    if (keyframes_[i].has_images()) {
+      index.push_back(i);
+      positions.push_back(keyframes_[i].world_T_radar.translation());
+    }
+  std::vector<std::size_t> w = radius_window(positions, options_.ba_radius_m, cap);
+  for (std::size_t& i : w) i = index[i];
   return w;
 }
 
@@ -607,6 +667,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
         grad_left[static_cast<std::size_t>(pose_row[k - 1])] += vj.d_previous.transpose() * g_v;
     }
     if (optimise_scene) loss += scale_regulariser(scene_, rows, reg, &gradients_);
+    if (options_.odometry_prior) loss += odometry_prior(poses, pose_row, grad_left);
     for (std::size_t r = 0; r < poses.size(); ++r) {
       if (planar) {
         const Eigen::Vector3d g =
@@ -686,11 +747,105 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   st.max_s = std::max(st.max_s, elapsed);
 }
 
+double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std::vector<int>& pose_row,
+                               std::vector<Vector6d>& grad_left) const {
+  const double sigma_r = options_.odometry_prior_sigma_deg * kDeg;
+  auto planar = [](const Eigen::Isometry3d& world_T_radar) { return PlanarPose::from_world_T_radar(world_T_radar); };
+  auto odom_radar = [&](const Keyframe& kf) { return planar(kf.odom_T_body * options_.body_T_radar); };
+  double loss = 0;
+  // Each pair (k-1, k) once: from k when k is optimised, from k-1 when only k-1 is.
+  auto pair = [&](std::size_t a, std::size_t b) {
+    const PlanarPose pa = planar(keyframes_[a].world_T_radar), pb = planar(keyframes_[b].world_T_radar);
+    Eigen::Vector3d ga = Eigen::Vector3d::Zero(), gb = Eigen::Vector3d::Zero();
+    loss += planar_relative_prior(pa, pb, odom_radar(keyframes_[a]), odom_radar(keyframes_[b]),
+                                  options_.odometry_prior_sigma_m, sigma_r, &ga, &gb);
+    // The stages sum left-increment gradients; left_increment_jacobian's columns are orthonormal,
+    // so planar_gradient(J g) = g: the planar gradient passes through unchanged (3-DoF), and 6-DoF
+    // poses see the same prior on their x, y, yaw.
+    if (pose_row[a] >= 0) grad_left[static_cast<std::size_t>(pose_row[a])] += left_increment_jacobian(pa) * ga;
+    if (pose_row[b] >= 0) grad_left[static_cast<std::size_t>(pose_row[b])] += left_increment_jacobian(pb) * gb;
+  };
+  for (const std::size_t k : poses) {
+    if (k > 0) pair(k - 1, k);
+    if (k + 1 < keyframes_.size() && pose_row[k + 1] < 0) pair(k, k + 1);
+    if (options_.odometry_yaw_sigma_deg > 0) {
+      const PlanarPose p = planar(keyframes_[k].world_T_radar);
+      Eigen::Vector3d g = Eigen::Vector3d::Zero();
+      loss += planar_yaw_prior(p, odom_radar(keyframes_[k]).yaw, options_.odometry_yaw_sigma_deg * kDeg, &g);
+      grad_left[static_cast<std::size_t>(pose_row[k])] += left_increment_jacobian(p) * g;
+    }
+  }
+  return loss;
+}
+
 void Backend::cleanup_scene() {
   const std::uint64_t before = scene_.removed_non_finite();
   scene_adam_.remap_scene(scene_.sanitize());
   stats_.nan_guard_hits += scene_.removed_non_finite() - before;
   scene_adam_.remap_scene(scene_.prune());
+}
+
+void Backend::evict_keyframe_images() {
+  const auto cap = static_cast<std::size_t>(options_.max_keyframe_images);
+  const std::size_t protected_newest =
+      static_cast<std::size_t>(std::max(options_.mapping_keyframes, options_.ba_max_keyframes));
+  std::size_t with_images = 0;
+  for (const Keyframe& kf : keyframes_) with_images += kf.has_images() ? 1 : 0;
+  const Eigen::Vector3d c = keyframes_.back().world_T_radar.translation();
+  while (with_images > cap && keyframes_.size() > protected_newest) {
+    std::size_t farthest = keyframes_.size();
+    double best = -1;
+    for (std::size_t i = 0; i + protected_newest < keyframes_.size(); ++i) {
+      if (!keyframes_[i].has_images()) continue;
+      const double d = (keyframes_[i].world_T_radar.translation() - c).squaredNorm();
+      if (d > best) {
+        best = d;
+        farthest = i;
+      }
+    }
+    if (farthest == keyframes_.size()) break;
+    Keyframe& kf = keyframes_[farthest];
+    for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
+    ++stats_.keyframe_images_evicted;
+    --with_images;
+  }
+}
+
+void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_rendered_c, double knee, int margin,
+                    Image<float>& ra_target, Image<float>& rd_target) {
+  if (ra_rendered_c.rows() != ra_target.rows() || ra_rendered_c.cols() != ra_target.cols() ||
+      rd_rendered_c.rows() != rd_target.rows() || rd_rendered_c.cols() != rd_target.cols() ||
+      ra_target.rows() != rd_target.rows())
+    throw std::invalid_argument("mask_uncovered: image sizes differ");
+  const Eigen::Index rows = ra_target.rows(), cols = ra_target.cols(), m = std::max(0, margin);
+  // Covered: within m bins (range and azimuth) of a rendered pixel above the knee. Separable
+  // dilation: along azimuth, then along range.
+  using Mask = Eigen::Array<bool, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Mask above = ra_rendered_c.array() > static_cast<float>(knee);
+  Mask along(rows, cols), covered(rows, cols);
+  // [i - m, i + m] cut to [0, n): its start and length.
+  auto first = [&](Eigen::Index i) { return std::max<Eigen::Index>(0, i - m); };
+  auto length = [&](Eigen::Index i, Eigen::Index n) { return std::min(n, i + m + 1) - first(i); };
+  for (Eigen::Index r = 0; r < rows; ++r)
+    for (Eigen::Index a = 0; a < cols; ++a) along(r, a) = above.row(r).segment(first(a), length(a, cols)).any();
+  for (Eigen::Index r = 0; r < rows; ++r)
+    for (Eigen::Index a = 0; a < cols; ++a) covered(r, a) = along.col(a).segment(first(r), length(r, rows)).any();
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    for (Eigen::Index a = 0; a < cols; ++a)
+      if (!covered(r, a)) ra_target(r, a) = ra_rendered_c(r, a);
+    // RD sums over azimuth: a range row the map does not reach at all takes the rendered RD.
+    if (!covered.row(r).any()) rd_target.row(r) = rd_rendered_c.row(r);
+  }
+}
+
+void Backend::mask_uncovered_targets(Keyframe& kf) {
+  const KeyframeRender render = render_keyframe(static_cast<std::size_t>(&kf - keyframes_.data()));
+  Image<float> ra_c, rd_c;
+  objective_->ra_loss().prepare_measurement(render.ra_rendered, ra_c);
+  objective_->rd_loss().prepare_measurement(render.rd_rendered, rd_c);
+  // The knee of the compression: rendered power above floor x reference.
+  const double knee = std::log(2.0) / std::log(1.0 + 1.0 / ra_loss_options_.compression.floor);
+  mask_uncovered(ra_c, rd_c, knee, options_.coverage_margin_bins, kf.ra_target, kf.rd_target);
 }
 
 void Backend::update_correction() {
@@ -701,6 +856,8 @@ void Backend::update_correction() {
 
 KeyframeRender Backend::render_keyframe(std::size_t k) {
   if (k >= keyframes_.size() || !objective_) throw std::out_of_range("Backend::render_keyframe: no such keyframe");
+  if (!keyframes_[k].has_images())
+    throw std::out_of_range("Backend::render_keyframe: keyframe " + std::to_string(k) + "'s images were evicted");
   const Keyframe& kf = keyframes_[k];
   KeyframeRender out;
   out.ra_measured = kf.ra;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace rsrio::splat {
@@ -112,6 +113,44 @@ RadarVelocity radar_velocity_from_poses(const Eigen::Isometry3d& radar_T_world_c
   out.d_previous.leftCols<3>() = r_k * r_km1.transpose() / dt;
   out.d_previous.rightCols<3>().setZero();
   return out;
+}
+
+namespace {
+
+double wrap_angle(double a) { return std::remainder(a, 2.0 * std::numbers::pi); }
+
+// R(yaw)^T (p_b - p_a) in the plane.
+Eigen::Vector2d planar_displacement(const PlanarPose& a, const PlanarPose& b) {
+  const double c = std::cos(a.yaw), s = std::sin(a.yaw);
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return {c * dx + s * dy, -s * dx + c * dy};
+}
+
+}  // namespace
+
+double planar_yaw_prior(const PlanarPose& pose, double yaw_odom, double sigma, Eigen::Vector3d* grad) {
+  if (!(sigma > 0)) throw std::invalid_argument("planar_yaw_prior: sigma must be positive");
+  const double w = wrap_angle(pose.yaw - yaw_odom);
+  if (grad != nullptr) grad->z() += w / (sigma * sigma);
+  return 0.5 * w * w / (sigma * sigma);
+}
+
+double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const PlanarPose& a_odom,
+                             const PlanarPose& b_odom, double sigma_t, double sigma_r, Eigen::Vector3d* grad_a,
+                             Eigen::Vector3d* grad_b) {
+  if (!(sigma_t > 0) || !(sigma_r > 0))
+    throw std::invalid_argument("planar_relative_prior: sigmas must be positive");
+  const Eigen::Vector2d u = planar_displacement(a, b) - planar_displacement(a_odom, b_odom);
+  const double w = wrap_angle(b.yaw - a.yaw - (b_odom.yaw - a_odom.yaw));
+  const double it2 = 1.0 / (sigma_t * sigma_t), ir2 = 1.0 / (sigma_r * sigma_r);
+  const double c = std::cos(a.yaw), s = std::sin(a.yaw);
+  // d u / d p_b = R^T, d u / d p_a = -R^T, d u / d yaw_a = dR^T/dyaw (p_b - p_a).
+  const Eigen::Vector2d g_pb = it2 * Eigen::Vector2d(c * u.x() - s * u.y(), s * u.x() + c * u.y());  // R u / sigma^2
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  const Eigen::Vector2d du_dyaw(-s * dx + c * dy, -c * dx - s * dy);
+  if (grad_a != nullptr) *grad_a += Eigen::Vector3d(-g_pb.x(), -g_pb.y(), it2 * u.dot(du_dyaw) - ir2 * w);
+  if (grad_b != nullptr) *grad_b += Eigen::Vector3d(g_pb.x(), g_pb.y(), ir2 * w);
+  return 0.5 * (it2 * u.squaredNorm() + ir2 * w * w);
 }
 
 }  // namespace rsrio::splat

@@ -1,8 +1,11 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_floating_point.hpp>
 
+#include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <random>
+#include <vector>
 
 #include "rsrio/splat/pose.hpp"
 #include "splat_test_support.hpp"
@@ -102,4 +105,89 @@ TEST_CASE("Radar velocity from two poses: value and Jacobians", "[splat][pose]")
   }
   CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-3 * numeric.cwiseAbs().maxCoeff());
   CHECK_THROWS(radar_velocity_from_poses(p1.radar_T_world(), p0.radar_T_world(), 0.0));
+}
+
+TEST_CASE("Planar yaw prior: zero at the frontend's heading, gradient matches finite differences, wraps",
+          "[splat][pose]") {
+  PlanarPose p;
+  p.x = 1;
+  p.y = 2;
+  p.yaw = 0.3;
+  CHECK(planar_yaw_prior(p, 0.3, 0.01, nullptr) == 0.0);
+  for (const double yaw : {0.31, -0.5, 3.1}) {
+    p.yaw = yaw;
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    const double odom = yaw == 3.1 ? -3.1 : 0.3;  // across +-pi: the short way round
+    const double loss = planar_yaw_prior(p, odom, 0.05, &g);
+    CHECK(loss > 0);
+    CHECK(g.x() == 0.0);
+    CHECK(g.y() == 0.0);
+    auto f = [&](double v) {
+      PlanarPose q = p;
+      q.yaw = v;
+      return planar_yaw_prior(q, odom, 0.05, nullptr);
+    };
+    CHECK(relative_error({g.z()}, {central_difference(f, yaw, 1e-6)}) < 1e-3);
+  }
+  p.yaw = 3.1;
+  CHECK_THAT(planar_yaw_prior(p, -3.1, 1.0, nullptr), Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
+}
+
+TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match finite differences",
+          "[splat][pose]") {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto random_planar = [&] {
+    PlanarPose p;
+    p.x = 5 * u(rng);
+    p.y = 5 * u(rng);
+    p.yaw = 3 * u(rng);
+    p.z = 0.2 * u(rng);
+    p.roll = 0.05 * u(rng);
+    p.pitch = 0.05 * u(rng);
+    return p;
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    const PlanarPose a_odom = random_planar(), b_odom = random_planar();
+    // The same relative motion seen from another (rotated, shifted) map frame costs nothing.
+    PlanarPose a = a_odom, b = b_odom;
+    const double turn = u(rng), c = std::cos(turn), s = std::sin(turn);
+    for (PlanarPose* p : {&a, &b}) {
+      const double x = p->x, y = p->y;
+      p->x = c * x - s * y + 1.0;
+      p->y = s * x + c * y - 2.0;
+      p->yaw += turn;
+    }
+    CHECK(planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr) < 1e-18);
+    // Disturbed: positive, and the analytic gradients of both poses match central differences.
+    a.x += 0.05 * u(rng);
+    a.yaw += 0.02 * u(rng);
+    b.y += 0.05 * u(rng);
+    b.yaw += 0.02 * u(rng);
+    Eigen::Vector3d ga = Eigen::Vector3d::Zero(), gb = Eigen::Vector3d::Zero();
+    const double loss = planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, &ga, &gb);
+    CHECK(loss > 0);
+    std::vector<double> analytic, numeric;
+    for (int which = 0; which < 2; ++which) {
+      for (int k = 0; k < 3; ++k) {
+        auto f = [&](double value) {
+          PlanarPose pa = a, pb = b;
+          PlanarPose& p = which == 0 ? pa : pb;
+          (k == 0 ? p.x : k == 1 ? p.y : p.yaw) = value;
+          return planar_relative_prior(pa, pb, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr);
+        };
+        const PlanarPose& p = which == 0 ? a : b;
+        numeric.push_back(central_difference(f, k == 0 ? p.x : k == 1 ? p.y : p.yaw, 1e-6));
+        analytic.push_back((which == 0 ? ga : gb)[k]);
+      }
+    }
+    CHECK(relative_error(analytic, numeric) < 1e-3);
+  }
+  // A yaw difference across +-pi is the short way round.
+  PlanarPose a, b, a_odom, b_odom;
+  a.yaw = 3.1;
+  b.yaw = -3.1;
+  a_odom.yaw = b_odom.yaw = 0.0;
+  CHECK_THAT(planar_relative_prior(a, b, a_odom, b_odom, 1.0, 1.0, nullptr, nullptr),
+             Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
 }

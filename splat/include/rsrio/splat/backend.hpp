@@ -16,9 +16,15 @@
 // with the frontend's motion since that keyframe (REP-105's map -> odom). At the newest keyframe
 // corrected() is exactly its refined pose; between keyframes it moves exactly as the frontend.
 //
-// POSES. 3-DoF (default, the paper's x, y, yaw): a keyframe's x, y, yaw are optimised and its z,
+// POSES. 3-DoF (default, the paper's x, y, yaw): a keyframe's x, y, yaw are optimised and its
 // roll and pitch stay what the (corrected) frontend gave (elevation is marginalised by the
-// renderer, so the images hardly see them). 6-DoF: se(3) left increments (pose.hpp).
+// renderer, so the images hardly see them); its z is the first keyframe's (level_floor, default)
+// or the frontend's. 6-DoF: se(3) left increments (pose.hpp).
+//
+// PRIOR. Besides the paper's image losses, pose refinement and BA weigh the frontend's planar
+// motion between consecutive keyframes (odometry_prior, planar_relative_prior). Without it the
+// poses slide where the images are ambiguous and the error grows past the frontend's (measured on
+// the simulated sequences: README, issue 6's tables).
 //
 // VELOCITY for the RD rendering of keyframe k (paper: "v obtained from T_k and T_{k-1} and the
 // time difference"): the backward difference of the radar positions of keyframe k and its
@@ -92,7 +98,8 @@ struct BackendOptions {
   std::string ba_window = "radius";   // radius (r_BA around the newest keyframe) | sliding (last N)
   double ba_radius_m = 10.0;          // r_BA
   int ba_sliding_keyframes = 10;      // N of the sliding window
-  int ba_max_keyframes = 10;          // bound on either window (the newest ones are kept)
+  int ba_max_keyframes = 10;          // bound on either window (sliding: the newest; radius: the
+                                      // newest half and the older ones nearest the newest keyframe)
   // ---- stages
   // Defaults: about 0.5 s per keyframe at most, i.e. one core keeps up with a keyframe every
   // 0.4 m at walking speed (rsrio-splat-bench measures it).
@@ -100,6 +107,13 @@ struct BackendOptions {
   StageOptions mapping{20, 0.15, 1e-4, 5, 0.1};
   StageOptions ba{20, 0.25, 1e-4, 5, 0.1};
   int first_keyframe_mapping_iterations = 100;  // the map of the first keyframe alone (no budget)
+  // Pose refinement compares only the part of the newest keyframe's images that the map explains:
+  // pixels farther than coverage_margin_bins (range and azimuth) from any the map renders above
+  // the compression knee take the rendered value as target. Returns from what is not mapped yet
+  // (ahead, round a corner: always on the inside of a loop) would otherwise pull the pose
+  // towards them, a yaw bias that accumulates keyframe after keyframe.
+  bool pose_coverage_mask = true;
+  int coverage_margin_bins = 3;
   // ---- loss
   bool rd_loss = true;                // RD term in pose refinement and BA (the ablation: false)
   double ra_weight = 1.0;
@@ -129,6 +143,26 @@ struct BackendOptions {
   std::string psf_doppler_window = "hann";
   // ---- poses
   int pose_dof = 3;                    // 3: x, y, yaw; 6: se(3)
+  // The frontend's planar motion between consecutive keyframes as a prior in pose refinement and
+  // BA (planar_relative_prior; not in the paper, whose image losses alone let the poses slide
+  // where the map is ambiguous: the ablation `without odometry prior` measures it). 6-DoF: the
+  // same planar prior on the poses' x, y, yaw.
+  // The platform moves on a level floor: every keyframe's radar height (map z) is the first
+  // keyframe's instead of the frontend's, whose z drifts (the radar hardly sees height, and
+  // double-integrated vertical acceleration wanders: decimetres over a few minutes). 3-DoF poses
+  // keep it there; 6-DoF poses start from it.
+  bool level_floor = true;
+  // Loose on purpose: the frontend is good to millimetres between keyframes, but a tight prior
+  // leaves the images no say (sigma 1 cm / 0.2 deg: the poses moved by 0.1 mm per keyframe on
+  // sequence 1). 0.2 m lets the map correct the drift; the yaw needs 1 deg: at 4 deg the images
+  // turned the poses by ~0.02 deg per keyframe, always the same way, 6 deg over sequence 3.
+  bool odometry_prior = true;
+  double odometry_prior_sigma_m = 0.2;
+  double odometry_prior_sigma_deg = 1.0;
+  // ... and the frontend's heading itself (planar_yaw_prior; 0: off): the map frame is the odom
+  // frame at the first keyframe, so a keyframe's yaw should stay near the frontend's. Without it
+  // the yaw of sequences 3 and 4 random-walked by 3-6 deg over a few minutes, either way.
+  double odometry_yaw_sigma_deg = 2.0;
   // ---- learning rates (Adam)
   double lr_pose_translation = 0.01;   // m
   double lr_pose_rotation = 0.004;     // rad
@@ -138,6 +172,11 @@ struct BackendOptions {
   double lr_log_returns = 0.03;
   // ---- scene
   int max_gaussians = 100'000;
+  // Keyframes whose images are kept (about 160 kB each on the cascade): beyond it the images of
+  // the keyframe farthest from the newest are dropped (its pose stays, for the odometry prior
+  // and the trajectory; it takes no part in the windows any more). The newest mapping_keyframes /
+  // ba_max_keyframes are never dropped. 500 keyframes cover ~200 m of path at 0.4 m spacing.
+  int max_keyframe_images = 500;
   double init_scale_m = 0.1;
   double init_min_spacing_m = 0.1;     // a CFAR point this near an existing Gaussian adds none
   double static_doppler_tolerance_mps = 0.3;  // points moving relative to the world add none
@@ -186,6 +225,7 @@ struct BackendStats {
   std::uint64_t nan_guard_hits = 0;   // skipped steps + restored poses + non-finite Gaussians removed
   std::uint64_t gaussians_added = 0;
   std::uint64_t points_rejected_dynamic = 0;
+  std::uint64_t keyframe_images_evicted = 0;  // keyframes whose images were dropped (max_keyframe_images)
   std::size_t gaussians = 0;
   double rd_gain = 0;
   StageStats pose, mapping, ba;
@@ -199,6 +239,7 @@ struct Keyframe {
   Eigen::Vector3d velocity_correction = Eigen::Vector3d::Zero();    // the constant of the header
   Image<float> ra, rd;                          // measured, linear
   Image<float> ra_target, rd_target;            // compressed (ImageLoss::prepare_measurement)
+  bool has_images() const { return ra.size() > 0; }  // false once evicted (max_keyframe_images)
 };
 
 /// The images of one keyframe rendered from the current map (for pictures and checks).
@@ -248,6 +289,19 @@ RadarVelocity keyframe_velocity(const Eigen::Isometry3d& radar_T_world_current,
                                 const Eigen::Isometry3d& radar_T_world_previous, double dt,
                                 const Eigen::Vector3d& correction);
 
+/// Pose refinement's targets on what the map explains (pose_coverage_mask): a pixel of ra_target
+/// farther than `margin` bins (range and azimuth) from every pixel of the compressed rendered RA
+/// above `knee` takes the rendered value; a range row of rd_target with no covered RA pixel takes
+/// the rendered RD row. Throws std::invalid_argument for images of different sizes.
+void mask_uncovered(const Image<float>& ra_rendered_compressed, const Image<float>& rd_rendered_compressed, double knee,
+                    int margin, Image<float>& ra_target, Image<float>& rd_target);
+
+/// The BA window of the paper's radius option for the newest (last) of `positions`, the keyframes'
+/// radar positions in time order: the indices of those within radius_m of it, at most `cap` of
+/// them (then the newest half and the older ones nearest to it, which on a revisit are the
+/// earlier pass's keyframes). Sorted ascending; the newest is always in it.
+std::vector<std::size_t> radius_window(std::span<const Eigen::Vector3d> positions, double radius_m, std::size_t cap);
+
 class Backend {
  public:
   /// Throws std::invalid_argument when the grids are not those of `config` (sizes and steps) or
@@ -282,7 +336,8 @@ class Backend {
   const RadarImageGrid& grid() const { return grid_; }
   const GaussianScene& scene() const { return scene_; }
   const std::vector<Keyframe>& keyframes() const { return keyframes_; }
-  /// Measured and rendered RA / RD of keyframe k (index into keyframes()).
+  /// Measured and rendered RA / RD of keyframe k (index into keyframes()); std::out_of_range for
+  /// a keyframe without images (evicted).
   KeyframeRender render_keyframe(std::size_t k);
 
  private:
@@ -294,8 +349,16 @@ class Backend {
   void run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
                  bool use_rd, const StageOptions& stage, int max_iterations, StageStats& stats);
   std::vector<std::size_t> ba_window() const;
+  /// The odometry prior of every consecutive keyframe pair with an optimised pose: its loss, and
+  /// its gradients added to grad_left (rows of pose_row).
+  double odometry_prior(const std::vector<std::size_t>& poses, const std::vector<int>& pose_row,
+                        std::vector<Vector6d>& grad_left) const;
   Eigen::Vector3d velocity_of(std::size_t k, RadarVelocity* jacobians) const;
   void cleanup_scene();
+  void evict_keyframe_images();
+  /// The newest keyframe's targets for pose refinement (pose_coverage_mask): where the map renders
+  /// nothing near, the rendered image itself.
+  void mask_uncovered_targets(Keyframe& kf);
   void update_correction();
 
   BackendOptions options_;

@@ -58,4 +58,23 @@ struct RadarVelocity {
 RadarVelocity radar_velocity_from_poses(const Eigen::Isometry3d& radar_T_world_current,
                                         const Eigen::Isometry3d& radar_T_world_previous, double dt);
 
+/// The frontend's planar motion from pose a to pose b as a prior on the optimised a and b:
+///     u = R(yaw_a)^T (p_b - p_a) - R(yaw_a')^T (p_b' - p_a')   (2-D, in a's frame)
+///     w = wrap(yaw_b - yaw_a - (yaw_b' - yaw_a'))
+///     loss = 0.5 (|u|^2 / sigma_t^2 + w^2 / sigma_r^2),
+/// primes: the frontend's poses (a_odom, b_odom). ADDS the gradients with respect to (x, y, yaw)
+/// of a and b (either may be null). Why: the image losses alone let a pose slide along a wall or
+/// turn where the map is ambiguous; the frontend's relative motion between two keyframes is good
+/// to millimetres, and this keeps the backend from trading it for a wrong image match.
+/// The frontend's heading as a prior on an optimised pose: w = wrap(yaw - yaw_odom),
+/// loss = 0.5 w^2 / sigma^2; ADDS d loss / d (x, y, yaw) to grad (may be null). Why: the image
+/// losses leave the heading of a window and its map free together (rotating both costs nothing),
+/// and Adam's normalised steps turn that freedom into a random walk of the yaw; the frontend's
+/// heading (gyro, zero-rate updates) drifts by a fraction of a degree over minutes.
+double planar_yaw_prior(const PlanarPose& pose, double yaw_odom, double sigma_rad, Eigen::Vector3d* grad);
+
+double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const PlanarPose& a_odom,
+                             const PlanarPose& b_odom, double sigma_translation_m, double sigma_rotation_rad,
+                             Eigen::Vector3d* grad_a, Eigen::Vector3d* grad_b);
+
 }  // namespace rsrio::splat
