@@ -21,10 +21,10 @@
 // renderer, so the images hardly see them); its z is the first keyframe's (level_floor, default)
 // or the frontend's. 6-DoF: se(3) left increments (pose.hpp).
 //
-// PRIOR. Besides the paper's image losses, pose refinement and BA weigh the frontend's planar
-// motion between consecutive keyframes (odometry_prior, planar_relative_prior). Without it the
-// poses slide where the images are ambiguous and the error grows past the frontend's (measured on
-// the simulated sequences: README, issue 6's tables).
+// PRIORS. Besides the paper's image losses, pose refinement and BA weigh the frontend's planar
+// motion between consecutive keyframes (planar_relative_prior) and its heading (planar_yaw_prior)
+// (odometry_prior). Without them the poses slide where the images are ambiguous and the yaw of a
+// window and its map wanders (measured on the simulated sequences: README).
 //
 // VELOCITY for the RD rendering of keyframe k (paper: "v obtained from T_k and T_{k-1} and the
 // time difference"): the backward difference of the radar positions of keyframe k and its
@@ -110,8 +110,7 @@ struct BackendOptions {
   // Pose refinement compares only the part of the newest keyframe's images that the map explains:
   // pixels farther than coverage_margin_bins (range and azimuth) from any the map renders above
   // the compression knee take the rendered value as target. Returns from what is not mapped yet
-  // (ahead, round a corner: always on the inside of a loop) would otherwise pull the pose
-  // towards them, a yaw bias that accumulates keyframe after keyframe.
+  // (ahead, round a corner) would otherwise pull the pose towards them.
   bool pose_coverage_mask = true;
   int coverage_margin_bins = 3;
   // ---- loss
@@ -143,19 +142,17 @@ struct BackendOptions {
   std::string psf_doppler_window = "hann";
   // ---- poses
   int pose_dof = 3;                    // 3: x, y, yaw; 6: se(3)
-  // The frontend's planar motion between consecutive keyframes as a prior in pose refinement and
-  // BA (planar_relative_prior; not in the paper, whose image losses alone let the poses slide
-  // where the map is ambiguous: the ablation `without odometry prior` measures it). 6-DoF: the
-  // same planar prior on the poses' x, y, yaw.
   // The platform moves on a level floor: every keyframe's radar height (map z) is the first
   // keyframe's instead of the frontend's, whose z drifts (the radar hardly sees height, and
   // double-integrated vertical acceleration wanders: decimetres over a few minutes). 3-DoF poses
   // keep it there; 6-DoF poses start from it.
   bool level_floor = true;
-  // Loose on purpose: the frontend is good to millimetres between keyframes, but a tight prior
-  // leaves the images no say (sigma 1 cm / 0.2 deg: the poses moved by 0.1 mm per keyframe on
-  // sequence 1). 0.2 m lets the map correct the drift; the yaw needs 1 deg: at 4 deg the images
-  // turned the poses by ~0.02 deg per keyframe, always the same way, 6 deg over sequence 3.
+  // The frontend's planar motion between consecutive keyframes as a prior in pose refinement and
+  // BA (planar_relative_prior; not in the paper, whose image losses alone let the poses slide
+  // where the map is ambiguous: the ablation `without the odometry prior` measures it). 6-DoF:
+  // the same planar prior on the poses' x, y, yaw. Loose on purpose: the frontend is good to
+  // millimetres between keyframes, but a tight prior leaves the images no say (1 cm / 0.2 deg:
+  // the poses moved by 0.1 mm per keyframe on sequence 1); 0.2 m lets the map correct the drift.
   bool odometry_prior = true;
   double odometry_prior_sigma_m = 0.2;
   double odometry_prior_sigma_deg = 1.0;
