@@ -454,6 +454,7 @@ TEST_CASE("Backend: 6-DoF poses and the sliding BA window refine a drifting walk
   const auto& [config, grids, grid, world] = rig;
   BackendOptions o = deterministic_options(20, 10, 10, 20);
   o.pose_dof = 6;
+  o.odometry_prior = false;  // the images alone, as the 3-DoF walk above
   o.ba_window = "sliding";
   o.ba_sliding_keyframes = 3;
   o.max_image_range_m = 12;
@@ -480,10 +481,9 @@ TEST_CASE("Backend: 6-DoF poses and the sliding BA window refine a drifting walk
               "backend %.4f m (vertical: %.4f m)\n",
               err_frontend, err_backend, err_z);
   CHECK(backend.grid().range_bins < grids.range_bins);  // cut at 12 m
-  // The horizontal error falls, with the odometry prior (default) pulling towards the frontend's
-  // 5 %-long steps; z, roll and pitch are nearly unobservable (elevation is marginalised, the
-  // scene is flat) and wander under Adam's normalised steps: 3-DoF is the default.
-  CHECK(err_backend < 0.8 * err_frontend);
+  // The horizontal error falls; z, roll and pitch are nearly unobservable (elevation is
+  // marginalised, the scene is flat) and wander under Adam's normalised steps: 3-DoF is the default.
+  CHECK(err_backend < 0.5 * err_frontend);
   CHECK(backend.stats().nan_guard_hits == 0);
 }
 

@@ -56,6 +56,26 @@ TEST_CASE("PlanarPose round-trips and its left-increment Jacobian matches finite
   }
 }
 
+TEST_CASE("left_increment_jacobian has orthonormal columns: planar gradients pass through J g unchanged",
+          "[splat][pose]") {
+  // Backend::odometry_prior adds J g to the left-increment gradient of a pose; planar_gradient
+  // then gives J^T J g, which must be g (3-DoF), and 6-DoF poses see the planar prior through J.
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    PlanarPose p;
+    p.x = 3 * u(rng);
+    p.y = 3 * u(rng);
+    p.yaw = 3 * u(rng);
+    p.roll = 0.1 * u(rng);
+    p.pitch = 0.1 * u(rng);
+    const Eigen::Matrix<double, 6, 3> j = left_increment_jacobian(p);
+    CHECK((j.transpose() * j - Eigen::Matrix3d::Identity()).norm() < 1e-12);
+    const Eigen::Vector3d g(u(rng), u(rng), u(rng));
+    CHECK((planar_gradient(p, j * g) - g).norm() < 1e-12);
+  }
+}
+
 TEST_CASE("Radar velocity from two poses: value and Jacobians", "[splat][pose]") {
   std::mt19937_64 rng(3);
   // Moving forward along the radar's x: the velocity is +x in the radar frame.
