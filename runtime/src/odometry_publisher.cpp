@@ -1,5 +1,7 @@
 #include "rsrio/runtime/odometry_publisher.hpp"
 
+#include <algorithm>
+
 #include "geometry_msgs/msg/PoseStampedPubSubTypes.hpp"
 #include "nav_msgs/msg/OdometryPubSubTypes.hpp"
 #include "rsrio_msgs/msg/StatusPubSubTypes.hpp"
@@ -86,6 +88,14 @@ bool OdometryPublisher::publish(const rsrio_msgs::msg::Status& status) {
   const bool ok = status_->write(&status) == fdds::RETCODE_OK;
   if (!ok) ++write_failures_;
   return ok;
+}
+
+int OdometryPublisher::pose_subscribers() {
+  fdds::PublicationMatchedStatus odom, pose;
+  if (odom_ == nullptr || pose_ == nullptr || odom_->get_publication_matched_status(odom) != fdds::RETCODE_OK ||
+      pose_->get_publication_matched_status(pose) != fdds::RETCODE_OK)
+    return 0;
+  return std::min(odom.current_count, pose.current_count);
 }
 
 }  // namespace rsrio

@@ -68,14 +68,16 @@ TEST_CASE("published odometry, pose and status reach a separate participant", "[
                                      rsrio::QosPreset::kOdometry);
   auto* status = node_side.make_reader("rt/rsrio/status", fdds::TypeSupport(new rsrio_msgs::msg::StatusPubSubType()),
                                        rsrio::QosPreset::kLatched);
-  // Wait until both pose readers are matched (reliable + volatile: earlier samples are not resent).
+  // Wait until both pose readers are matched, on both sides (reliable + volatile: earlier samples
+  // are not resent, and a reader can see its match before the writer does).
   for (int i = 0; i < 200; ++i) {
     fdds::SubscriptionMatchedStatus a, b;
     odom->get_subscription_matched_status(a);
     pose->get_subscription_matched_status(b);
-    if (a.current_count > 0 && b.current_count > 0) break;
+    if (a.current_count > 0 && b.current_count > 0 && publisher.pose_subscribers() > 0) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  REQUIRE(publisher.pose_subscribers() > 0);
   REQUIRE(publisher.publish(sample_pose()));
   rsrio_msgs::msg::Status st;
   st.health("ok");

@@ -63,6 +63,9 @@ class OdometryPublisher {
   bool publish(const PoseOutput& pose);
   bool publish(const rsrio_msgs::msg::Status& status);
   std::uint64_t write_failures() const { return write_failures_; }
+  /// Readers matched by both the odometry and the pose writer (the fewer of the two). A reader can
+  /// see its match before the writer does; a volatile sample written in between is lost to it.
+  int pose_subscribers();
 
  private:
   PublisherOptions options_;
