@@ -13,6 +13,23 @@
 using namespace rsrio::splat;
 using namespace rsrio::splat::test;
 
+namespace {
+
+// A planar pose with x, y in +-xy, yaw in +-3 rad, z in +-0.2 m, roll and pitch in +-tilt.
+PlanarPose random_planar_pose(std::mt19937_64& rng, double xy, double tilt) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  PlanarPose p;
+  p.x = xy * u(rng);
+  p.y = xy * u(rng);
+  p.yaw = 3 * u(rng);
+  p.z = 0.2 * u(rng);
+  p.roll = tilt * u(rng);
+  p.pitch = tilt * u(rng);
+  return p;
+}
+
+}  // namespace
+
 TEST_CASE("se3_exp is a rigid motion and a left increment moves radar-frame points by rho + omega x p",
           "[splat][pose]") {
   Vector6d d;
@@ -63,12 +80,7 @@ TEST_CASE("left_increment_jacobian has orthonormal columns: planar gradients pas
   std::mt19937_64 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int trial = 0; trial < 10; ++trial) {
-    PlanarPose p;
-    p.x = 3 * u(rng);
-    p.y = 3 * u(rng);
-    p.yaw = 3 * u(rng);
-    p.roll = 0.1 * u(rng);
-    p.pitch = 0.1 * u(rng);
+    const PlanarPose p = random_planar_pose(rng, 3.0, 0.1);
     const Eigen::Matrix<double, 6, 3> j = left_increment_jacobian(p);
     CHECK((j.transpose() * j - Eigen::Matrix3d::Identity()).norm() < 1e-12);
     const Eigen::Vector3d g(u(rng), u(rng), u(rng));
@@ -157,16 +169,7 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
           "[splat][pose]") {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto random_planar = [&] {
-    PlanarPose p;
-    p.x = 5 * u(rng);
-    p.y = 5 * u(rng);
-    p.yaw = 3 * u(rng);
-    p.z = 0.2 * u(rng);
-    p.roll = 0.05 * u(rng);
-    p.pitch = 0.05 * u(rng);
-    return p;
-  };
+  auto random_planar = [&] { return random_planar_pose(rng, 5.0, 0.05); };
   for (int trial = 0; trial < 20; ++trial) {
     const PlanarPose a_odom = random_planar(), b_odom = random_planar();
     // The same relative motion seen from another (rotated, shifted) map frame costs nothing.
