@@ -422,16 +422,13 @@ bool Backend::add_frame(const BackendFrame& frame) {
     run_stage({k}, {}, true, false, first_mapping, options_.first_keyframe_mapping_iterations, stats_.mapping);
   } else {
     // 1. pose refinement of the newest keyframe (RA + RD), the map fixed; on what the map covers.
-    if (options_.pose_coverage_mask) {
-      Keyframe& newest = keyframes_[k];
-      Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
-      mask_uncovered_targets(newest);
-      run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
-      newest.ra_target = std::move(ra_target);
-      newest.rd_target = std::move(rd_target);
-    } else {
-      run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
-    }
+    // The masked targets serve this stage only: mapping and BA compare the whole images.
+    Keyframe& newest = keyframes_[k];
+    const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
+    if (options_.pose_coverage_mask) mask_uncovered_targets(k);
+    run_stage({k}, {k}, false, true, options_.pose, options_.pose.max_iterations, stats_.pose);
+    newest.ra_target = ra_target;
+    newest.rd_target = rd_target;
     // New Gaussians from this keyframe's points, placed with the refined pose.
     add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
     // 2. mapping over the last N_map keyframes (RA only), poses fixed.
@@ -838,14 +835,17 @@ void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_re
   }
 }
 
-void Backend::mask_uncovered_targets(Keyframe& kf) {
-  const KeyframeRender render = render_keyframe(static_cast<std::size_t>(&kf - keyframes_.data()));
+void Backend::mask_uncovered_targets(std::size_t k) {
+  const KeyframeRender render = render_keyframe(k);
   Image<float> ra_c, rd_c;
   objective_->ra_loss().prepare_measurement(render.ra_rendered, ra_c);
   objective_->rd_loss().prepare_measurement(render.rd_rendered, rd_c);
-  // The knee of the compression: rendered power above floor x reference.
-  const double knee = std::log(2.0) / std::log(1.0 + 1.0 / ra_loss_options_.compression.floor);
-  mask_uncovered(ra_c, rd_c, knee, options_.coverage_margin_bins, kf.ra_target, kf.rd_target);
+  // The knee of the compression: rendered power above floor x reference, compressed as the images.
+  const CompressionOptions& c = ra_loss_options_.compression;
+  Image<float> knee;
+  compress(Image<float>::Constant(1, 1, static_cast<float>(c.floor * c.reference)).eval(), c, knee);
+  Keyframe& kf = keyframes_[k];
+  mask_uncovered(ra_c, rd_c, knee(0, 0), options_.coverage_margin_bins, kf.ra_target, kf.rd_target);
 }
 
 void Backend::update_correction() {

@@ -355,7 +355,7 @@ class Backend {
   void evict_keyframe_images();
   /// The newest keyframe's targets for pose refinement (pose_coverage_mask): where the map renders
   /// nothing near, the rendered image itself.
-  void mask_uncovered_targets(Keyframe& kf);
+  void mask_uncovered_targets(std::size_t k);
   void update_correction();
 
   BackendOptions options_;
