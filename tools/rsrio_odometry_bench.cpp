@@ -1,10 +1,17 @@
 // rsrio-odometry-bench: time per radar frame of the odometry core's stages (DSP, ego-velocity,
 // frontend) on simulated stretches of walking, p50 and p99 against the frame period. The frames
 // are simulated in between (not timed); the odometry runs on one thread, as in rsrio-replay.
+// Also the ego-velocity against the simulator's true radar velocity while walking (> 0.3 m/s):
+// the mean and RMS of its direction error in the plane (positive: turned to the left) and the
+// mean speed ratio. A mean direction error is a heading offset that no later stage can see (the
+// trajectory is turned against the poses' yaw by it: the floor of the rotation APE).
 //
-//   rsrio-odometry-bench [--seconds S]   (default 12 s of each stretch)
+//   rsrio-odometry-bench [--seconds S]   (default 12 s of each stretch, 30 s of the corridor ones)
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <numbers>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -24,16 +31,22 @@ Pct pct(std::vector<double> v) {
   return {at(0.5), at(0.99)};
 }
 
-void bench(const std::string& label, const std::string& scenario_path, double seconds) {
+// `preset`: another radar on the same walk (as rsrio-sim --radar: the scenario's frame period kept).
+void bench(const std::string& label, const std::string& scenario_path, double seconds, const char* preset = nullptr) {
   rsrio::sim::Scenario s = rsrio::sim::load_scenario(scenario_path);
   s.duration_s = seconds;
+  if (preset != nullptr) {
+    const double period = s.radar.frame_period_ms;
+    s.radar = rsrio::radar_preset(preset);
+    s.radar.frame_period_ms = period;
+  }
   rsrio::sim::Simulation sim(s, 2);
   rsrio::rio::OdometryOptions o;
   o.frontend.body_T_radar = gtsam::Pose3(gtsam::Rot3(s.rig.radar_in_imu.rotation), s.rig.radar_in_imu.translation);
   o.frontend.radar_time_offset_s = s.rig.imu_time_offset_s;
   rsrio::rio::Odometry odometry(s.radar, o);
   rsrio::AdcCube cube = rsrio::AdcCube::for_config(s.radar);
-  std::vector<double> dsp, ego, frontend, total;
+  std::vector<double> dsp, ego, frontend, total, direction_deg, speed_ratio;
   double points = 0;
   for (std::uint64_t k = 0; k < sim.radar_frames(); ++k) {
     const double t = sim.radar().frame_completion(k);
@@ -48,12 +61,28 @@ void bench(const std::string& label, const std::string& scenario_path, double se
     frontend.push_back(f.frontend_ms);
     total.push_back(f.dsp_ms + f.ego_ms + f.frontend_ms);
     points += f.points;
+    if (f.ego.ok()) {
+      const rsrio::sim::RigState truth = sim.radar_state(f.t);
+      const Eigen::Vector3d v = truth.rotation.transpose() * truth.velocity;  // radar axes
+      if (v.head<2>().norm() > 0.3) {
+        const Eigen::Vector3d& e = f.ego.velocity;
+        direction_deg.push_back(std::remainder(std::atan2(e.y(), e.x()) - std::atan2(v.y(), v.x()), 2 * std::numbers::pi) *
+                                180 / std::numbers::pi);
+        speed_ratio.push_back(e.head<2>().norm() / v.head<2>().norm());
+      }
+    }
   }
   const auto a = pct(dsp), b = pct(ego), c = pct(frontend), d = pct(total);
   const double period = s.radar.frame_period_ms;
-  std::printf("%-28s %6zu %7.0f | %7.2f %7.2f | %6.3f %6.3f | %7.2f %7.2f | %7.2f %7.2f | %6.0f %7.2f\n", label.c_str(),
-              dsp.size(), points / std::max<std::size_t>(1, dsp.size()), a.p50, a.p99, b.p50, b.p99, c.p50, c.p99, d.p50,
-              d.p99, period, period / std::max(d.p50, 1e-9));
+  const auto mean = [](const std::vector<double>& x) {
+    return x.empty() ? 0.0 : std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  };
+  const double rms = std::sqrt(
+      std::inner_product(direction_deg.begin(), direction_deg.end(), direction_deg.begin(), 0.0) /
+      static_cast<double>(std::max<std::size_t>(1, direction_deg.size())));
+  std::printf("%-28s %6zu %7.0f | %7.2f %7.2f | %6.3f %6.3f | %7.2f %7.2f | %7.2f %7.2f | %6.0f %7.2f | %+6.2f %5.2f %7.4f\n",
+              label.c_str(), dsp.size(), points / std::max<std::size_t>(1, dsp.size()), a.p50, a.p99, b.p50, b.p99, c.p50,
+              c.p99, d.p50, d.p99, period, period / std::max(d.p50, 1e-9), mean(direction_deg), rms, mean(speed_ratio));
   std::fflush(stdout);
 }
 
@@ -66,9 +95,13 @@ int main(int argc, char** argv) {
   if (auto rc = cli.parse(argc, argv)) return *rc;
   const double seconds = std::stod(seconds_text);
   std::printf("rsrio-odometry-bench: ms per radar frame, one thread (frames simulated in between, not timed)\n\n");
-  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s\n", "stretch", "frames", "points", "DSP p50/p99",
-              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt");
+  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s | %19s\n", "stretch", "frames", "points", "DSP p50/p99",
+              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt", "ego dir deg / speed");
   bench("test_tiny (xwr1843, 16 loops)", "scenarios/test_tiny.yaml", std::min(seconds, 6.4));
   bench("seq2 start (mmwcas)", "scenarios/seq2_small_loop.yaml", seconds);
+  // Straight down sequence 3's corridor (walls on both sides), 2.5x as long: the direction
+  // error's mean is the point of these rows, and its frame-to-frame scatter is ~2 deg.
+  bench("seq3 corridor (mmwcas)", "scenarios/seq3_large_loop.yaml", 2.5 * seconds);
+  bench("seq3 corridor (xwr1843)", "scenarios/seq3_large_loop.yaml", 2.5 * seconds, "xwr1843");
   return 0;
 }
