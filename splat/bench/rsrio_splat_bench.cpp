@@ -3,10 +3,18 @@
 //     x 128 azimuth, 32 Doppler bins) and the xwr1843's: RA render forward, backward, the image
 //     loss with its gradient, RD forward and backward, for 2k and 10k Gaussians, float and double.
 //     One thread. Numbers are medians over repeated runs.
+//     The RD renderer with the backend's kernel (the DSP's Doppler lobe, 0.61 bins), at
+//     elevation 0 and with the Gaussians' pixel directions (RaRenderer::render_directions, also
+//     timed).
 //  2. the backend per keyframe (splat::Backend with its default options: pose refinement,
 //     mapping, BA) on a synthetic walk through a room of Gaussians whose images are rendered
 //     (so the optimisation has the work of a real stretch without the simulator): mean and
 //     maximum time per stage and keyframe, Gaussians, and the process's peak memory (ru_maxrss).
+//  3. the speed the RD model fits best on simulated cascade frames (sequence 1, meeting room,
+//     through the real DSP): the DSP's RD against RD rendered from the DSP's RA at s x the true
+//     velocity, s = 0.90 .. 1.10, with each pixel's Doppler at elevation 0 and from the
+//     directions of the simulator's scatterers drawn as Gaussians. A best s below 1 pulls the
+//     backend's keyframe spacing short.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -18,7 +26,10 @@
 
 #include <sys/resource.h>
 
+#include "rsrio/common/adc_cube.hpp"
 #include "rsrio/dsp/processor.hpp"
+#include "rsrio/sim/scenario.hpp"
+#include "rsrio/sim/simulation.hpp"
 #include "rsrio/splat/backend.hpp"
 #include "rsrio/splat/losses.hpp"
 #include "rsrio/splat/ra_renderer.hpp"
@@ -61,7 +72,9 @@ GaussianScene make_scene(int n, std::uint64_t seed) {
 template <typename Scalar>
 void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scene, int reps) {
   const RaRenderer<Scalar> ra_renderer(grid);
-  RdRenderer<Scalar> rd_renderer(grid);
+  RdRenderOptions rdo;
+  rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;  // the backend's default
+  RdRenderer<Scalar> rd_renderer(grid, rdo);
   ImageLoss<Scalar> loss;
   const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   Image<Scalar> ra, rd, grad_ra, grad_rd, target_ra, target_rd;
@@ -86,10 +99,112 @@ void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scen
   Eigen::Vector3d grad_v = Eigen::Vector3d::Zero();
   const double t_rd_bwd = median_ms(reps, [&] { rd_renderer.backward(ra, velocity, grad_rd, &grad_ra, &grad_v); });
   const double t_rd_loss = median_ms(reps, [&] { loss.evaluate(rd, target_rd, &grad_rd); });
+  std::vector<std::uint32_t> all(scene.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<std::uint32_t>(i);
+  PixelDirections<Scalar> directions;
+  const double t_dir = median_ms(reps, [&] { ra_renderer.render_directions(scene, pose, all, directions); });
+  const double t_rd_dir_fwd = median_ms(reps, [&] { rd_renderer.render(ra, velocity, rd, &directions); });
+  const double t_rd_dir_bwd =
+      median_ms(reps, [&] { rd_renderer.backward(ra, velocity, grad_rd, &grad_ra, &grad_v, &directions); });
   const double total = t_fwd + t_bwd + t_loss + t_rd_fwd + t_rd_bwd + t_rd_loss;
-  std::printf("| %6zu | %-6s | %8.0f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %7.0f |\n",
+  std::printf("| %6zu | %-6s | %8.0f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %7.0f | %8.3f | %8.3f | %8.3f |\n",
               scene.size(), type, static_cast<double>(stats.pixels) / static_cast<double>(scene.size()), t_fwd,
-              t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total);
+              t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total, t_dir, t_rd_dir_fwd, t_rd_dir_bwd);
+}
+
+void print_render_header() {
+  std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    "
+              "| dirs     | RD+d fwd | RD+d bwd |\n");
+  std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------"
+              "|----------|----------|----------|\n");
+}
+
+// ---- the speed the RD model fits best on simulated frames
+
+struct SpeedFit {
+  int frames = 0;
+  double best_flat = 0, best_directions = 0;  // s with the lowest summed loss (parabolic refinement)
+};
+
+double parabolic_minimum(const std::vector<double>& s, const std::vector<double>& loss) {
+  const std::size_t i = static_cast<std::size_t>(std::min_element(loss.begin(), loss.end()) - loss.begin());
+  if (i == 0 || i + 1 == loss.size()) return s[i];
+  const double l = loss[i - 1], c = loss[i], r = loss[i + 1], den = l - 2 * c + r;
+  return den > 0 ? s[i] + 0.5 * (l - r) / den * (s[i + 1] - s[i]) : s[i];
+}
+
+SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int stride) {
+  rsrio::sim::Scenario scenario = rsrio::sim::load_scenario(scenario_path);
+  scenario.duration_s = t1 + 0.5;
+  rsrio::sim::Simulation sim(scenario, 2);
+  rsrio::DspProcessor dsp(sim.radar().config());
+  const RadarImageGrid grid = RadarImageGrid::from_config(sim.radar().config());
+  // The simulator's scatterers as point-like Gaussians, drawn as the RA test does (1/R^4, the
+  // simulator's elevation beam): only their directions per pixel are used.
+  GaussianScene scene;
+  for (const rsrio::sim::Scatterer& p : sim.scene().static_scatterers())
+    scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
+  RaRenderOptions ro;
+  ro.range_falloff_exponent = 4;
+  ro.elevation_gain_sigma_sin = 0.21;
+  const RaRenderer<float> ra_renderer(grid, ro);
+  RdRenderOptions rdo;
+  rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
+  ImageLossOptions lo;
+  lo.skip_near_range_bins = BackendOptions{}.skip_near_range_bins;  // the rest: the backend's defaults too
+  SpeedFit out;
+  std::vector<double> scales;
+  for (int k = 0; k <= 40; ++k) scales.push_back(0.90 + 0.005 * k);
+  std::vector<double> loss_flat(scales.size(), 0.0), loss_dir(scales.size(), 0.0);
+  rsrio::AdcCube cube;
+  Image<float> rendered, rd_target;
+  PixelDirections<float> directions;
+  const Eigen::Isometry3d body_T_radar = [&] {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = scenario.rig.radar_in_imu.rotation;
+    T.translation() = scenario.rig.radar_in_imu.translation;
+    return T;
+  }();
+  for (std::uint64_t k = 0; k < sim.radar_frames(); k += static_cast<std::uint64_t>(stride)) {
+    const double t = 0.5 * (sim.radar().frame_start(k) + sim.radar().frame_completion(k));
+    if (t < t0 || t > t1) continue;
+    const rsrio::sim::RigState radar = sim.radar_state(t);
+    const Eigen::Vector3d v = radar.rotation.transpose() * radar.velocity;
+    if (v.norm() < 0.3) continue;
+    sim.radar().simulate(k, cube);
+    const rsrio::DspResult& r = dsp.process(cube);
+    const Image<float> ra = Eigen::Map<const Image<float>>(r.ra.data(), grid.range_bins, grid.azimuth_bins);
+    const Image<float> rd = Eigen::Map<const Image<float>>(r.rd.data(), grid.range_bins, grid.doppler_bins);
+    Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();
+    const rsrio::sim::RigState body = sim.imu_state(t);
+    world_T_body.linear() = body.rotation;
+    world_T_body.translation() = body.position;
+    const Eigen::Isometry3d radar_T_world = (world_T_body * body_T_radar).inverse();
+    std::vector<std::uint32_t> near;
+    scene.update_index();
+    scene.query_radius(radar_T_world.inverse().translation(), grid.range_bins * grid.range_bin_m, near);
+    ra_renderer.render_directions(scene, radar_T_world, near, directions);
+    // Each frame's loss as the backend's: RD / RA scale calibrated on the frame at the truth.
+    rdo.gain = 1.0;
+    RdRenderer<float> unit(grid, rdo);
+    unit.render(ra, v, rendered);
+    RdRenderOptions calibrated = rdo;
+    calibrated.gain = rd.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum());
+    RdRenderer<float> renderer(grid, calibrated);
+    lo.compression.reference = percentile_reference(r.rd, 99.0);
+    ImageLoss<float> loss(lo);
+    loss.prepare_measurement(rd, rd_target);
+    for (std::size_t i = 0; i < scales.size(); ++i) {
+      renderer.render(ra, scales[i] * v, rendered);
+      loss_flat[i] += loss.evaluate(rendered, rd_target, nullptr);
+      renderer.render(ra, scales[i] * v, rendered, &directions);
+      loss_dir[i] += loss.evaluate(rendered, rd_target, nullptr);
+    }
+    ++out.frames;
+  }
+  out.best_flat = parabolic_minimum(scales, loss_flat);
+  out.best_directions = parabolic_minimum(scales, loss_dir);
+  return out;
 }
 
 // ---- backend on a synthetic walk
@@ -194,8 +309,7 @@ int main() {
   std::printf("rsrio-splat-bench: mmwcas grid %d range x %d azimuth (%.3f m bins), %d Doppler bins; one thread\n",
               grid.range_bins, grid.azimuth_bins, grid.range_bin_m, grid.doppler_bins);
   std::printf("times in ms per image (median); px/G = pixels evaluated per Gaussian; it/s = full RA+RD iterations per second\n\n");
-  std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    |\n");
-  std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------|\n");
+  print_render_header();
   for (const int n : {2000, 10000}) {
     const GaussianScene scene = make_scene(n, 42);
     const int reps = n > 5000 ? 20 : 50;
@@ -207,9 +321,14 @@ int main() {
   const RadarImageGrid grid_small = RadarImageGrid::from_config(small);
   std::printf("\nxwr1843 grid %d range x %d azimuth (%.3f m bins), %d Doppler bins; one thread\n\n", grid_small.range_bins,
               grid_small.azimuth_bins, grid_small.range_bin_m, grid_small.doppler_bins);
-  std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    |\n");
-  std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------|\n");
+  print_render_header();
   run<float>("float", grid_small, make_scene(2000, 42), 50);
+
+  std::printf("\nthe speed the RD model fits best (x the true speed) on sequence 1's cascade frames, 5-35 s, every "
+              "3rd frame, through the DSP\n\n");
+  const SpeedFit fit = fit_rd_speed("scenarios/seq1_meeting_room.yaml", 5.0, 35.0, 3);
+  std::printf("| frames | elevation 0 | Gaussians' directions |\n|--------|-------------|-----------------------|\n");
+  std::printf("| %6d | %11.3f | %21.3f |\n", fit.frames, fit.best_flat, fit.best_directions);
 
   std::printf("\nbackend per keyframe (default options: pose %d it, mapping %d it over N_map = %d, BA %d it within "
               "r_BA = %.0f m, at most %d keyframes), synthetic 8 s walk at 0.8 m/s in a 15 m x 9 m room; seconds\n\n",

@@ -96,6 +96,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("rd_kernel_sigma_bins", o.rd_kernel_sigma_bins, {0.0, 100.0});
   node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
   node.read("rd_gain", o.rd_gain, {0.0, 1e12});
+  node.read("rd_gaussian_directions", o.rd_gaussian_directions);
   node.read_choice("psf_range_window", o.psf_range_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_angle_window", o.psf_angle_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_doppler_window", o.psf_doppler_window, {"none", "hann", "hamming", "blackman"});
@@ -164,6 +165,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  rd_kernel_sigma_bins: " << o.rd_kernel_sigma_bins << "\n"
       << "  rd_window_bins: " << o.rd_window_bins << "\n"
       << "  rd_gain: " << o.rd_gain << "\n"
+      << "  rd_gaussian_directions: " << (o.rd_gaussian_directions ? "true" : "false") << "\n"
       << "  psf_range_window: " << o.psf_range_window << "\n"
       << "  psf_angle_window: " << o.psf_angle_window << "\n"
       << "  psf_doppler_window: " << o.psf_doppler_window << "\n"
@@ -228,7 +230,8 @@ template <typename Scalar>
 typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
     const GaussianScene& scene, std::span<const std::uint32_t> gaussians, const Eigen::Isometry3d& radar_T_world,
     const Eigen::Vector3d* velocity, const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight,
-    double rd_weight, SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity) {
+    double rd_weight, SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity,
+    const PixelDirections<Scalar>* directions) {
   Result r;
   const bool backward = scene_gradients != nullptr || grad_pose != nullptr;
   ra_renderer_.render(scene, radar_T_world, gaussians, ra_);
@@ -236,13 +239,13 @@ typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
   if (backward) grad_ra_ *= static_cast<Scalar>(ra_weight);
   const bool use_rd = velocity != nullptr && rd_weight > 0;
   if (use_rd) {
-    rd_renderer_.render(ra_, *velocity, rd_);
+    rd_renderer_.render(ra_, *velocity, rd_, directions);
     const bool rd_backward = backward || grad_velocity != nullptr;
     r.rd_loss = rd_loss_.evaluate(rd_, rd_target, rd_backward ? &grad_rd_ : nullptr);
     if (rd_backward) {
       grad_rd_ *= static_cast<Scalar>(rd_weight);
       if (!backward) grad_ra_.setZero(ra_.rows(), ra_.cols());
-      rd_renderer_.backward(ra_, *velocity, grad_rd_, &grad_ra_, grad_velocity);
+      rd_renderer_.backward(ra_, *velocity, grad_rd_, &grad_ra_, grad_velocity, directions);
     }
   }
   if (backward) ra_renderer_.backward(scene, radar_T_world, gaussians, grad_ra_, scene_gradients, grad_pose);
@@ -620,6 +623,15 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
   if (rows.empty()) return;
 
+  // The RD pixels' directions, per view, from the map at the stage's start.
+  const bool directions = use_rd && options_.rd_gaussian_directions;
+  if (directions) {
+    if (directions_.size() < views.size()) directions_.resize(views.size());
+    for (std::size_t i = 0; i < views.size(); ++i)
+      objective_->ra_renderer().render_directions(scene_, keyframes_[views[i]].world_T_radar.inverse(), lists[i],
+                                                  directions_[i]);
+  }
+
   ScaleRegulariserOptions reg;
   reg.max_scale_m = options_.scale_regulariser_max_m;
   reg.weight = options_.scale_regulariser_weight;
@@ -657,7 +669,8 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
       const auto r = objective_->evaluate(scene_, lists[i], kf.world_T_radar.inverse(), use_rd ? &v : nullptr,
                                           kf.ra_target, kf.rd_target, options_.ra_weight,
                                           use_rd ? options_.rd_weight : 0.0, optimise_scene ? &gradients_ : nullptr,
-                                          pose_row[k] >= 0 ? &g_pose : nullptr, use_rd ? &g_v : nullptr);
+                                          pose_row[k] >= 0 ? &g_pose : nullptr, use_rd ? &g_v : nullptr,
+                                          directions ? &directions_[i] : nullptr);
       loss += options_.ra_weight * r.ra_loss + (use_rd ? options_.rd_weight * r.rd_loss : 0.0);
       if (pose_row[k] >= 0) grad_left[static_cast<std::size_t>(pose_row[k])] += g_pose + vj.d_current.transpose() * g_v;
       if (use_rd && k > 0 && pose_row[k - 1] >= 0)
@@ -869,7 +882,11 @@ KeyframeRender Backend::render_keyframe(std::size_t k) {
   scene_.query_radius(kf.world_T_radar.translation(), radius, list);
   objective_->ra_renderer().render(scene_, kf.world_T_radar.inverse(), list, out.ra_rendered);
   out.velocity = velocity_of(k, nullptr);
-  objective_->rd_renderer().render(out.ra_rendered, out.velocity, out.rd_rendered);
+  PixelDirections<float> directions;
+  if (options_.rd_gaussian_directions)
+    objective_->ra_renderer().render_directions(scene_, kf.world_T_radar.inverse(), list, directions);
+  objective_->rd_renderer().render(out.ra_rendered, out.velocity, out.rd_rendered,
+                                   options_.rd_gaussian_directions ? &directions : nullptr);
   return out;
 }
 

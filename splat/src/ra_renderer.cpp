@@ -362,6 +362,55 @@ RenderStats RaRenderer<Scalar>::render_impl(const GaussianScene& scene, const Ei
 }
 
 template <typename Scalar>
+void RaRenderer<Scalar>::render_directions(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
+                                           std::span<const std::uint32_t> gaussians,
+                                           PixelDirections<Scalar>& out) const {
+  const int rows = grid_.range_bins, cols = grid_.azimuth_bins;
+  for (Image<Scalar>* m : {&out.x, &out.y, &out.z, &out.weight}) {
+    if (m->rows() != rows || m->cols() != cols) m->resize(rows, cols);
+    m->setZero();
+  }
+  const Context ctx = make_context(grid_, options_);
+  const Eigen::Matrix3d r_tw = radar_T_world.linear();
+  const Eigen::Vector3d t_tw = radar_T_world.translation();
+  Projection g;
+  for_each(scene, &gaussians, [&](std::size_t i) {
+    project(scene, i, r_tw, t_tw, ctx, g);
+    if (!g.visible) return;
+    const Scalar amplitude = static_cast<Scalar>(g.amplitude);
+    const Scalar nx = static_cast<Scalar>(g.n.x()), ny = static_cast<Scalar>(g.n.y()), nz = static_cast<Scalar>(g.n.z());
+    walk_rows(g, options_.cutoff_sigma, rows, first_azimuth_, last_azimuth_, [&](const RowSpan& s, double e22) {
+      const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(s.k) * cols;
+      Scalar value = static_cast<Scalar>(s.value) * amplitude;
+      Scalar ratio = static_cast<Scalar>(s.ratio);
+      const Scalar step = static_cast<Scalar>(e22);
+      for (int a = s.a0; a <= s.a1; ++a) {
+        out.weight.data()[base + a] += value;
+        out.x.data()[base + a] += value * nx;
+        out.y.data()[base + a] += value * ny;
+        out.z.data()[base + a] += value * nz;
+        value *= ratio;
+        ratio *= step;
+      }
+    });
+  });
+  for (int k = 0; k < rows; ++k)
+    for (int a = 0; a < cols; ++a) {
+      const Scalar w = out.weight(k, a);
+      if (w > Scalar(0)) {
+        out.x(k, a) /= w;
+        out.y(k, a) /= w;
+        out.z(k, a) /= w;
+      } else {
+        const double u = std::clamp(grid_.azimuth_sin(a), -1.0, 1.0);
+        out.x(k, a) = static_cast<Scalar>(std::sqrt(1.0 - u * u));
+        out.y(k, a) = static_cast<Scalar>(u);
+        out.z(k, a) = Scalar(0);
+      }
+    }
+}
+
+template <typename Scalar>
 void RaRenderer<Scalar>::backward(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
                                   std::span<const std::uint32_t> gaussians, const Image<Scalar>& grad_image,
                                   SceneGradients* gradients, Vector6d* grad_pose) const {

@@ -1,6 +1,7 @@
 // The backend without the simulator: options, the gradients of the keyframe objective with the
 // keyframe-pair velocity, the map -> odom correction, bad input.
 #include <catch2/catch_test_macros.hpp>
+#include <catch2/generators/catch_generators.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -232,6 +233,10 @@ TEST_CASE("radius_window: everything near on the first pass, the earlier pass's 
 
 TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair match central differences",
           "[splat][backend][gradient]") {
+  // Without and with the RD pixels' directions from the Gaussians (held constant, as a stage
+  // holds them).
+  const bool with_directions = GENERATE(false, true);
+  INFO("pixel directions: " << with_directions);
   std::mt19937_64 rng(21);
   const RadarImageGrid grid = small_grid();
   PlanarPose prev_true, cur_true;
@@ -270,10 +275,13 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   prev.yaw -= 1 * kDeg;
   std::vector<std::uint32_t> all(scene.size());
   std::iota(all.begin(), all.end(), 0u);
+  PixelDirections<double> directions_storage;
+  objective.ra_renderer().render_directions(scene, cur.radar_T_world(), all, directions_storage);
+  const PixelDirections<double>* directions = with_directions ? &directions_storage : nullptr;
   auto total = [&](const PlanarPose& c, const PlanarPose& p) {
     const Eigen::Vector3d v = keyframe_velocity(c.radar_T_world(), p.radar_T_world(), dt, correction).velocity;
     const auto r = objective.evaluate(scene, all, c.radar_T_world(), &v, ra_target, rd_target, 1.0, 0.7, nullptr,
-                                      nullptr, nullptr);
+                                      nullptr, nullptr, directions);
     return r.ra_loss + 0.7 * r.rd_loss;
   };
   // Analytic: left-increment gradient of the current pose (RA, and RD through the RA image) plus
@@ -283,7 +291,8 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   Eigen::Vector3d g_v = Eigen::Vector3d::Zero();
   SceneGradients sg;
   sg.reset(scene.size());
-  objective.evaluate(scene, all, cur.radar_T_world(), &vj.velocity, ra_target, rd_target, 1.0, 0.7, &sg, &g_left, &g_v);
+  objective.evaluate(scene, all, cur.radar_T_world(), &vj.velocity, ra_target, rd_target, 1.0, 0.7, &sg, &g_left, &g_v,
+                     directions);
   const Eigen::Vector3d g_cur = planar_gradient(cur, g_left + vj.d_current.transpose() * g_v);
   const Eigen::Vector3d g_prev = planar_gradient(prev, vj.d_previous.transpose() * g_v);
 
@@ -321,7 +330,8 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
     const Eigen::Isometry3d c0 = cur.radar_T_world(), p0 = prev.radar_T_world();
     auto total6 = [&](const Eigen::Isometry3d& c, const Eigen::Isometry3d& p) {
       const Eigen::Vector3d v = keyframe_velocity(c, p, dt, correction).velocity;
-      const auto r = objective.evaluate(scene, all, c, &v, ra_target, rd_target, 1.0, 0.7, nullptr, nullptr, nullptr);
+      const auto r =
+          objective.evaluate(scene, all, c, &v, ra_target, rd_target, 1.0, 0.7, nullptr, nullptr, nullptr, directions);
       return r.ra_loss + 0.7 * r.rd_loss;
     };
     const Vector6d a_cur = g_left + vj.d_current.transpose() * g_v;

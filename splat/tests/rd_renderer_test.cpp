@@ -1,9 +1,14 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_floating_point.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <vector>
 #include <random>
 
+#include "rsrio/splat/ra_renderer.hpp"
 #include "rsrio/splat/rd_renderer.hpp"
 #include "splat_test_support.hpp"
 
@@ -19,20 +24,40 @@ Image<double> random_image(std::mt19937_64& rng, int rows, int cols, double lo, 
   return m;
 }
 
-void check_rd_gradients(const RdRenderOptions& options, const Eigen::Vector3d& velocity, std::uint64_t seed) {
+// Pixel directions of returns up to +-40 deg above and below each pixel's azimuth (unit vectors
+// with the pixel's sin-theta), as RaRenderer::render_directions makes them.
+PixelDirections<double> random_directions(std::mt19937_64& rng, const RadarImageGrid& grid) {
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  PixelDirections<double> d;
+  for (Image<double>* m : {&d.x, &d.y, &d.z, &d.weight}) m->setOnes(grid.range_bins, grid.azimuth_bins);
+  for (int r = 0; r < grid.range_bins; ++r)
+    for (int a = 0; a < grid.azimuth_bins; ++a) {
+      const double s = std::clamp(grid.azimuth_sin(a), -1.0, 1.0);
+      const double w = std::sqrt(1 - s * s) * std::sin(0.7 * u(rng));
+      d.y(r, a) = s;
+      d.z(r, a) = w;
+      d.x(r, a) = std::sqrt(std::max(0.0, 1 - s * s - w * w));
+    }
+  return d;
+}
+
+void check_rd_gradients(const RdRenderOptions& options, const Eigen::Vector3d& velocity, std::uint64_t seed,
+                        bool with_directions = false) {
   std::mt19937_64 rng(seed);
   const RadarImageGrid grid = small_grid();
   RdRenderer<double> renderer(grid, options);
   Image<double> ra = random_image(rng, grid.range_bins, grid.azimuth_bins, 0.0, 1.0);
   const Image<double> weights = random_image(rng, grid.range_bins, grid.doppler_bins, -1.0, 1.0);
+  const PixelDirections<double> directions_storage = random_directions(rng, grid);
+  const PixelDirections<double>* directions = with_directions ? &directions_storage : nullptr;
   auto loss = [&](const Image<double>& image, const Eigen::Vector3d& v) {
     Image<double> rd;
-    renderer.render(image, v, rd);
+    renderer.render(image, v, rd, directions);
     return (rd.array() * weights.array()).sum();
   };
   Image<double> grad_ra;
   Eigen::Vector3d grad_v = Eigen::Vector3d::Zero();
-  renderer.backward(ra, velocity, weights, &grad_ra, &grad_v);
+  renderer.backward(ra, velocity, weights, &grad_ra, &grad_v, directions);
 
   std::uniform_int_distribution<int> pick_r(0, grid.range_bins - 1), pick_a(0, grid.azimuth_bins - 1);
   std::vector<double> analytic, numeric;
@@ -59,11 +84,16 @@ void check_rd_gradients(const RdRenderOptions& options, const Eigen::Vector3d& v
         },
         velocity[c], 1e-6);
   const double err_v = relative_error(to_vector(grad_v), nv);
-  std::printf("RD gradcheck (window %d, v = %.2f %.2f): d/dRA %.2e d/dv %.2e\n", options.window_bins, velocity.x(),
-              velocity.y(), err_ra, err_v);
+  std::printf("RD gradcheck (window %d, v = %.2f %.2f %.2f, %s): d/dRA %.2e d/dv %.2e\n", options.window_bins,
+              velocity.x(), velocity.y(), velocity.z(), with_directions ? "pixel directions" : "elevation 0", err_ra,
+              err_v);
   CHECK(err_ra < 1e-3);
   CHECK(err_v < 1e-3);
-  CHECK(grad_v.z() == 0.0);
+  // At elevation 0 v_z cannot matter; with directions above and below the radar it does.
+  if (with_directions)
+    CHECK(std::abs(grad_v.z()) > 1e-3 * grad_v.norm());
+  else
+    CHECK(grad_v.z() == 0.0);
 }
 
 }  // namespace
@@ -81,6 +111,101 @@ TEST_CASE("RD gradients match central differences", "[splat][rd]") {
   RdRenderOptions paper;
   paper.antenna.kind = AntennaProfile::Kind::kCosinePower;
   check_rd_gradients(paper, Eigen::Vector3d(0.3131, 0.1717, 0.0), 3);
+  // Each pixel's Doppler from its direction (elevation included), v_z in play; the backend's
+  // DSP-lobe kernel (0.61 bins, window cut at 8 sigma) too.
+  check_rd_gradients(wide, Eigen::Vector3d(0.4, -0.25, 0.1), 4, true);
+  RdRenderOptions lobe;
+  lobe.kernel_sigma_bins = 0.61;
+  check_rd_gradients(lobe, Eigen::Vector3d(0.3131, 0.1717, -0.05), 5, true);
+}
+
+TEST_CASE("RD with the pixels' own directions at elevation 0 is the per-azimuth rendering", "[splat][rd]") {
+  std::mt19937_64 rng(6);
+  const RadarImageGrid grid = small_grid();
+  for (const double sigma : {3.0, 0.61}) {
+    RdRenderOptions o;
+    o.kernel_sigma_bins = sigma;
+    RdRenderer<double> renderer(grid, o);
+    const Image<double> ra = random_image(rng, grid.range_bins, grid.azimuth_bins, 0.0, 1.0);
+    PixelDirections<double> flat;
+    for (Image<double>* m : {&flat.x, &flat.y, &flat.z, &flat.weight}) m->setZero(grid.range_bins, grid.azimuth_bins);
+    for (int r = 0; r < grid.range_bins; ++r)
+      for (int a = 0; a < grid.azimuth_bins; ++a) {
+        const double s = std::clamp(grid.azimuth_sin(a), -1.0, 1.0);
+        flat.x(r, a) = std::sqrt(1 - s * s);
+        flat.y(r, a) = s;
+      }
+    const Eigen::Vector3d v(0.37, -0.21, 0.3);  // v_z has nothing to act on at elevation 0
+    Image<double> a, b;
+    renderer.render(ra, v, a);
+    renderer.render(ra, v, b, &flat);
+    CHECK((a - b).cwiseAbs().maxCoeff() <= 1e-12 * a.cwiseAbs().maxCoeff());
+    const Image<double> g = random_image(rng, grid.range_bins, grid.doppler_bins, -1.0, 1.0);
+    Image<double> ga, gb;
+    Eigen::Vector3d va = Eigen::Vector3d::Zero(), vb = Eigen::Vector3d::Zero();
+    renderer.backward(ra, v, g, &ga, &va);
+    renderer.backward(ra, v, g, &gb, &vb, &flat);
+    CHECK((ga - gb).cwiseAbs().maxCoeff() <= 1e-12 * ga.cwiseAbs().maxCoeff());
+    CHECK((va - vb).norm() <= 1e-12 * va.norm());
+  }
+  CHECK(effective_window(RdRenderOptions{}) == 10);  // sigma 3: the paper's +-10 bins
+  RdRenderOptions lobe;
+  lobe.kernel_sigma_bins = 0.61;
+  CHECK(effective_window(lobe) == 5);
+  Image<double> wrong = Image<double>::Zero(3, 3);
+  PixelDirections<double> bad{wrong, wrong, wrong, wrong};
+  RdRenderer<double> renderer(grid);
+  Image<double> rd;
+  CHECK_THROWS_AS(renderer.render(Image<double>::Zero(grid.range_bins, grid.azimuth_bins), Eigen::Vector3d::UnitX(), rd,
+                                  &bad),
+                  std::invalid_argument);
+}
+
+TEST_CASE("RD from the Gaussians' directions: a return above the radar closes in at cos(elevation)", "[splat][rd]") {
+  const RadarImageGrid grid = small_grid();  // 0.05 m/s Doppler bins, +-0.8 m/s
+  // One small Gaussian 3 m ahead and 1.5 m above the radar (elevation 26.6 deg): sin-theta 0,
+  // so at elevation 0 its pixel would close in at the full 0.6 m/s.
+  GaussianScene scene;
+  const Eigen::Vector3d p(3.0, 0.0, 1.5);
+  scene.add(p, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), 0.0);
+  const Eigen::Isometry3d radar_T_world = Eigen::Isometry3d::Identity();
+  RaRenderer<double> ra_renderer(grid);
+  Image<double> ra;
+  ra_renderer.render(scene, radar_T_world, ra);
+  std::vector<std::uint32_t> all{0};
+  PixelDirections<double> directions;
+  ra_renderer.render_directions(scene, radar_T_world, all, directions);
+  CHECK((directions.weight - ra).cwiseAbs().maxCoeff() <= 1e-12 * ra.maxCoeff());
+  // Where the Gaussian is drawn, the direction is its own; elsewhere the pixel's at elevation 0.
+  Eigen::Index kr, ka;
+  ra.maxCoeff(&kr, &ka);
+  const Eigen::Vector3d n = p.normalized();
+  CHECK(std::abs(directions.x(kr, ka) - n.x()) < 1e-12);
+  CHECK(std::abs(directions.z(kr, ka) - n.z()) < 1e-12);
+  CHECK(directions.z(5, 10) == 0.0);
+  CHECK(std::abs(directions.y(5, 10) - grid.azimuth_sin(10)) < 1e-12);
+
+  RdRenderOptions o;
+  o.kernel_sigma_bins = 0.61;
+  RdRenderer<double> rd_renderer(grid, o);
+  const Eigen::Vector3d v(0.6, 0, 0);
+  // The RD's Doppler centroid over the Gaussian's range bins.
+  auto centroid = [&](const PixelDirections<double>* d) {
+    Image<double> rd;
+    rd_renderer.render(ra, v, rd, d);
+    double sum = 0, moment = 0;
+    for (int r = 0; r < grid.range_bins; ++r)
+      for (int j = 0; j < grid.doppler_bins; ++j) {
+        sum += rd(r, j);
+        moment += rd(r, j) * grid.doppler_mps(j);
+      }
+    return moment / sum;
+  };
+  const double expected = -n.dot(v);  // -0.537 m/s
+  INFO("elevation 0: " << centroid(nullptr) << " m/s, with directions: " << centroid(&directions) << " m/s, true "
+                       << expected);
+  CHECK(std::abs(centroid(&directions) - expected) < 0.005);
+  CHECK(std::abs(centroid(nullptr) - (-0.6)) < 0.01);
 }
 
 TEST_CASE("RD sign: forward motion makes boresight returns approach (negative Doppler)", "[splat][rd]") {

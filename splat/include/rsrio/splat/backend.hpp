@@ -137,6 +137,12 @@ struct BackendOptions {
   double rd_kernel_sigma_bins = 0;
   int rd_window_bins = 10;             // paper
   double rd_gain = 0;                  // RD / RA scale; <= 0: calibrated on the first keyframe
+  // Each RD pixel's Doppler from where the map's Gaussians in it lie (their 3D directions, the
+  // paper's per-Gaussian -r^T v; RdRenderer, PixelDirections) instead of from its azimuth at
+  // elevation 0, which makes returns above and below the radar close in too fast and so pulls
+  // the velocity, and with it the keyframe spacing, low. The directions are made once per view
+  // and stage.
+  bool rd_gaussian_directions = true;
   std::string psf_range_window = "hann";  // the DSP's windows (dsp.range_window / angle_window)
   std::string psf_angle_window = "none";
   std::string psf_doppler_window = "hann";
@@ -259,11 +265,13 @@ class KeyframeObjective {
   /// RA loss (+ rd_weight x RD loss when rd_weight > 0 and velocity is not null) of the listed
   /// Gaussians seen from radar_T_world against the compressed targets. ADDS gradients into
   /// scene_gradients (may be null), grad_pose (left increment of radar_T_world, may be null) and
-  /// grad_velocity (may be null).
+  /// grad_velocity (may be null). `directions`: the pixels' directions for the RD rendering
+  /// (RaRenderer::render_directions, held constant; null: elevation 0).
   Result evaluate(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
                   const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d* velocity,
                   const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight, double rd_weight,
-                  SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity);
+                  SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity,
+                  const PixelDirections<Scalar>* directions = nullptr);
 
   const RaRenderer<Scalar>& ra_renderer() const { return ra_renderer_; }
   RdRenderer<Scalar>& rd_renderer() { return rd_renderer_; }
@@ -377,6 +385,7 @@ class Backend {
   const std::atomic<bool>* cancel_ = nullptr;
   // Scratch.
   SceneGradients gradients_;
+  std::vector<PixelDirections<float>> directions_;  // per view of the running stage
 };
 
 }  // namespace rsrio::splat

@@ -33,6 +33,18 @@ namespace rsrio::splat {
 template <typename Scalar>
 using Image = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
+/// Where what an RA pixel shows lies: the unit direction (radar frame) of the Gaussians drawn
+/// into it, averaged with their contributions (RaRenderer::render_directions), N_r x N_a each.
+/// The RD renderer takes a pixel's Doppler from it: the paper's per-Gaussian v_D = -r^T v, with
+/// the elevation that the RA image has marginalised out (a return 30 deg above the radar closes
+/// in at cos 30 = 0.87 of the speed of one at elevation 0 with the same sin-theta). Pixels that
+/// no Gaussian reaches hold their own direction at elevation 0.
+template <typename Scalar>
+struct PixelDirections {
+  Image<Scalar> x, y, z;
+  Image<Scalar> weight;  // the contributions summed (= the rendered RA image)
+};
+
 /// Full width at half maximum, in bins of an un-padded DFT, of the main lobe of |DFT|^2 of a
 /// window: none 0.886, hann 1.443, hamming 1.300, blackman 1.680. Throws std::invalid_argument for
 /// another name.

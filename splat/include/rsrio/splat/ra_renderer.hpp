@@ -97,6 +97,13 @@ class RaRenderer {
   void backward(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
                 const Image<Scalar>& grad_image, SceneGradients* gradients, Vector6d* grad_pose) const;
 
+  /// The directions of what each pixel of render()'s image shows (grid.hpp, PixelDirections):
+  /// every Gaussian's unit mean direction in the radar frame, averaged per pixel with its
+  /// contribution. Forward only: the stages take them as constants (they move with the poses
+  /// and means by far less than a Doppler bin within a stage).
+  void render_directions(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
+                         std::span<const std::uint32_t> gaussians, PixelDirections<Scalar>& directions) const;
+
   /// Where and how Gaussian i lands on the grid for this pose.
   GaussianFootprint footprint(const GaussianScene& scene, std::size_t i,
                               const Eigen::Isometry3d& radar_T_world) const;

@@ -8,10 +8,16 @@
 // for the radar velocity v in the radar frame (x forward, y left). Sign: a radar moving forward
 // (v_x > 0) closes in on static points ahead, which therefore approach: v_D(boresight) = -v_x < 0.
 // (The paper writes v_x cos + v_y sin for the scene's velocity relative to the radar; this is the
-// same quantity in the DSP's receding-positive convention, SPEC Sec. 8.) Pixels are taken at
-// elevation 0, so v_z does not enter. sigma = kernel_sigma_bins Doppler bins (paper: 3), the
-// kernel is evaluated over +-window_bins bins around v_D (paper: 10) and wraps around the Doppler
-// axis like the Doppler FFT does. Invalid azimuth bins (|sin| > 1) contribute nothing.
+// same quantity in the DSP's receding-positive convention, SPEC Sec. 8.) Without pixel
+// directions, pixels are taken at elevation 0, so v_z does not enter. With PixelDirections
+// (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in each pixel lie) a
+// pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v: returns above and
+// below the radar close in more slowly than cos(theta_a) says (elevation marginalised in the RA
+// image), which at elevation 0 biases the velocity that fits the measured RD low (measured on
+// the simulated meeting room: README). The directions are constants of render() and backward().
+// sigma = kernel_sigma_bins Doppler bins (paper: 3), the kernel is evaluated over +-window_bins
+// bins around v_D (paper: 10; cut at 8 sigma, effective_window) and wraps around the Doppler axis
+// like the Doppler FFT does. Invalid azimuth bins (|sin| > 1) contribute nothing.
 //
 // Phi: the DSP's RD is the non-coherent sum over all virtual channels and its RA the
 // beamformed power summed over Doppler; by Parseval the sum over azimuth bins of RA equals the
@@ -53,6 +59,10 @@ struct RdRenderOptions {
   double gain = 1.0;               // RD scale relative to RA
 };
 
+/// The kernel's half-width in bins: window_bins, cut at 8 sigma (the kernel is below 1.3e-14 of
+/// its peak there; the DSP-lobe sigma of 0.61 bins needs 5 of the paper's 10).
+int effective_window(const RdRenderOptions& options);
+
 /// The Doppler (receding positive) of a static point in the direction sin_theta (elevation 0)
 /// seen from a radar moving with `velocity` (radar frame).
 double static_doppler(const Eigen::Vector3d& velocity, double sin_theta);
@@ -65,19 +75,30 @@ class RdRenderer {
   const RadarImageGrid& grid() const { return grid_; }
   const RdRenderOptions& options() const { return options_; }
 
-  /// rd (resized to N_r x N_d, overwritten) from an RA image (N_r x N_a) and the velocity.
-  void render(const Image<Scalar>& ra, const Eigen::Vector3d& velocity, Image<Scalar>& rd);
+  /// rd (resized to N_r x N_d, overwritten) from an RA image (N_r x N_a) and the velocity;
+  /// `directions` (null: elevation 0) must be N_r x N_a (std::invalid_argument otherwise).
+  void render(const Image<Scalar>& ra, const Eigen::Vector3d& velocity, Image<Scalar>& rd,
+              const PixelDirections<Scalar>* directions = nullptr);
 
   /// Backward of render(): given dL/dRD, ADDS dL/dRA into grad_ra (resized and zeroed if its
-  /// shape is not the RA's) and dL/dv into grad_velocity; either may be null.
+  /// shape is not the RA's) and dL/dv into grad_velocity; either may be null. With directions,
+  /// pixels whose RA is exactly 0 get no dL/dRA: nothing is drawn into them, so RaRenderer's
+  /// backward never reads them (and their directions are placeholders).
   void backward(const Image<Scalar>& ra, const Eigen::Vector3d& velocity, const Image<Scalar>& grad_rd,
-                Image<Scalar>* grad_ra, Eigen::Vector3d* grad_velocity);
+                Image<Scalar>* grad_ra, Eigen::Vector3d* grad_velocity,
+                const PixelDirections<Scalar>* directions = nullptr);
 
  private:
   void prepare(const Eigen::Vector3d& velocity);
+  // The kernel taps of one pixel whose Doppler is v_D (m/s): Doppler bins, weights and their
+  // derivatives by v_D (when asked), into pixel_index_ / pixel_weight_ / pixel_weight_dv_ (times
+  // phi); false (nothing written) for a non-finite or absurd v_D, which then contributes nothing.
+  bool pixel_taps(double vd, double phi, bool derivatives);
+  void check_directions(const PixelDirections<Scalar>* directions) const;
 
   RadarImageGrid grid_;
   RdRenderOptions options_;
+  int window_ = 0;                   // effective_window(options_)
   int taps_ = 0;                     // 2 window + 1
   std::vector<double> cos_, sin_;    // per azimuth bin
   std::vector<Scalar> phi_;          // gain * Phi, 0 for invalid bins
@@ -86,6 +107,9 @@ class RdRenderer {
   std::vector<Scalar> weight_dv_;    // [azimuth][tap] d weight / d v_D (per m/s)
   std::vector<char> active_;         // azimuth bin contributes
   std::vector<double> grad_vd_;      // backward scratch, per azimuth bin
+  double kernel_step_ = 0;           // exp(-1 / sigma^2): the taps' recurrence
+  std::vector<int> pixel_index_;     // one pixel's taps (with directions)
+  std::vector<Scalar> pixel_weight_, pixel_weight_dv_;
 };
 
 extern template class RdRenderer<float>;
