@@ -95,8 +95,8 @@ int main(int argc, char** argv) {
   if (auto rc = cli.parse(argc, argv)) return *rc;
   const double seconds = std::stod(seconds_text);
   std::printf("rsrio-odometry-bench: ms per radar frame, one thread (frames simulated in between, not timed)\n\n");
-  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s | %19s\n", "stretch", "frames", "points", "DSP p50/p99",
-              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt", "ego dir deg / speed");
+  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s | %s\n", "stretch", "frames", "points", "DSP p50/p99",
+              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt", "ego dir mean/RMS deg, speed");
   bench("test_tiny (xwr1843, 16 loops)", "scenarios/test_tiny.yaml", std::min(seconds, 6.4));
   bench("seq2 start (mmwcas)", "scenarios/seq2_small_loop.yaml", seconds);
   // Straight down sequence 3's corridor (walls on both sides), 2.5x as long: the direction
