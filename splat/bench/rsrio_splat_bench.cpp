@@ -159,12 +159,7 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
   rsrio::AdcCube cube;
   Image<float> rendered, rd_target;
   PixelDirections<float> directions;
-  const Eigen::Isometry3d body_T_radar = [&] {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = scenario.rig.radar_in_imu.rotation;
-    T.translation() = scenario.rig.radar_in_imu.translation;
-    return T;
-  }();
+  scene.update_index();
   for (std::uint64_t k = 0; k < sim.radar_frames(); k += static_cast<std::uint64_t>(stride)) {
     const double t = 0.5 * (sim.radar().frame_start(k) + sim.radar().frame_completion(k));
     if (t < t0 || t > t1) continue;
@@ -175,16 +170,15 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
     const rsrio::DspResult& r = dsp.process(cube);
     const Image<float> ra = Eigen::Map<const Image<float>>(r.ra.data(), grid.range_bins, grid.azimuth_bins);
     const Image<float> rd = Eigen::Map<const Image<float>>(r.rd.data(), grid.range_bins, grid.doppler_bins);
-    Eigen::Isometry3d world_T_body = Eigen::Isometry3d::Identity();
-    const rsrio::sim::RigState body = sim.imu_state(t);
-    world_T_body.linear() = body.rotation;
-    world_T_body.translation() = body.position;
-    const Eigen::Isometry3d radar_T_world = (world_T_body * body_T_radar).inverse();
+    Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
+    world_T_radar.linear() = radar.rotation;
+    world_T_radar.translation() = radar.position;
+    const Eigen::Isometry3d radar_T_world = world_T_radar.inverse();
     std::vector<std::uint32_t> near;
-    scene.update_index();
-    scene.query_radius(radar_T_world.inverse().translation(), grid.range_bins * grid.range_bin_m, near);
+    scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m, near);
     ra_renderer.render_directions(scene, radar_T_world, near, directions);
-    // Each frame's loss as the backend's: RD / RA scale calibrated on the frame at the truth.
+    // The backend's loss; the RD / RA scale calibrated on each frame at the true velocity (the
+    // backend calibrates once, on its first keyframe, the same way).
     rdo.gain = 1.0;
     RdRenderer<float> unit(grid, rdo);
     unit.render(ra, v, rendered);
@@ -327,8 +321,8 @@ int main() {
   std::printf("\nthe speed the RD model fits best (x the true speed) on sequence 1's cascade frames, 5-35 s, every "
               "3rd frame, through the DSP\n\n");
   const SpeedFit fit = fit_rd_speed("scenarios/seq1_meeting_room.yaml", 5.0, 35.0, 3);
-  std::printf("| frames | elevation 0 | Gaussians' directions |\n|--------|-------------|-----------------------|\n");
-  std::printf("| %6d | %11.3f | %21.3f |\n", fit.frames, fit.best_flat, fit.best_directions);
+  std::printf("| frames | elevation 0 | scatterers' directions |\n|--------|-------------|------------------------|\n");
+  std::printf("| %6d | %11.3f | %22.3f |\n", fit.frames, fit.best_flat, fit.best_directions);
 
   std::printf("\nbackend per keyframe (default options: pose %d it, mapping %d it over N_map = %d, BA %d it within "
               "r_BA = %.0f m, at most %d keyframes), synthetic 8 s walk at 0.8 m/s in a 15 m x 9 m room; seconds\n\n",
