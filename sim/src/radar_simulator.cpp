@@ -115,6 +115,22 @@ struct RadarSimulator::Impl {
       rx_az.push_back(d * c.array.rx_azimuth[r]);
       rx_el.push_back(d * c.array.rx_elevation[r]);
     }
+    // The radar frame's origin is the array's phase centre: the mean over the channels of the TX-RX
+    // midpoints. The plane-wave steering phase -(tx + rx) . u is referenced to one point, and its
+    // change from chirp to chirp gives every channel the Doppler of its own midpoint, so the summed
+    // Doppler is that of the channels' mean midpoint. Referenced anywhere else, angle and Doppler
+    // belong to different points: the cascade's antenna 0 sits 4.2 cm off its phase centre, and a
+    // wall 1.2 m to the side then turned the ego-velocity by +0.5 deg (Doppler error
+    // -v c sin(theta) cos(theta) / r, found by rsrio-odometry-bench's corridor rows).
+    const auto centre = [](std::vector<double>& v) {
+      double mean = 0;
+      for (double x : v) mean += x / static_cast<double>(v.size());
+      for (double& x : v) x -= mean;
+    };
+    centre(tx_az);
+    centre(tx_el);
+    centre(rx_az);
+    centre(rx_el);
 
     // Channel gain/phase errors per (TX antenna, RX), and the calibration that undoes them.
     const std::size_t n_ant = c.array.tx_azimuth.size();

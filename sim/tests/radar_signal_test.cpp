@@ -47,6 +47,9 @@ RadarModelOptions clean_model() {
 struct Textbook {
   // Everything from the configuration, written out from the FMCW formulas.
   double f0, slope, fs, fc, tc, idle, t_adc, d, active;
+  // The array phases are referenced to the phase centre (the radar frame's origin): the mean over
+  // the channels of the TX-RX midpoints, so the mean TX plus the mean RX position (element units).
+  double centre_a = 0, centre_e = 0;
   int n_tx, n_rx, n_samples;
   explicit Textbook(const RadarConfig& c) {
     f0 = c.chirp.start_frequency_ghz * 1e9;
@@ -61,6 +64,14 @@ struct Textbook {
     n_tx = static_cast<int>(c.tx_order.size());
     n_rx = static_cast<int>(c.array.rx_azimuth.size());
     active = c.loops * n_tx * tc;
+    for (const int tx : c.tx_order) {
+      centre_a += c.array.tx_azimuth[tx] / static_cast<double>(n_tx);
+      centre_e += c.array.tx_elevation[tx] / static_cast<double>(n_tx);
+    }
+    for (int r = 0; r < n_rx; ++r) {
+      centre_a += c.array.rx_azimuth[r] / static_cast<double>(n_rx);
+      centre_e += c.array.rx_elevation[r] / static_cast<double>(n_rx);
+    }
   }
 };
 
@@ -131,8 +142,8 @@ TEST_CASE("sim: a point scatterer's IF samples follow the textbook FMCW TDM-MIMO
       const double tau = 2 * range / kC;
       const Eigen::Vector3d u = r_rad.transpose() * rel.normalized();
       const int tx = config.tx_order[ix.slot];
-      const int a = config.array.tx_azimuth[tx] + config.array.rx_azimuth[ix.rx];
-      const int e = config.array.tx_elevation[tx] + config.array.rx_elevation[ix.rx];
+      const double a = config.array.tx_azimuth[tx] + config.array.rx_azimuth[ix.rx] - tb.centre_a;
+      const double e = config.array.tx_elevation[tx] + config.array.rx_elevation[ix.rx] - tb.centre_e;
       // Textbook IF phase (mixer tx * conj(rx)) plus the narrowband array phase at the frequency
       // the echo was sent with, fc - S tau.
       const double phase = 2 * kPi * (tb.f0 * tau + tb.slope * tau * t_ramp - tb.slope * tau * tau / 2) -
@@ -197,8 +208,9 @@ TEST_CASE("sim: the wideband array effect stays inside the documented bound", "[
     for (int rx = 0; rx < tb.n_rx; ++rx)
       for (int n : {0, tb.n_samples / 2, tb.n_samples - 1}) {
         const int tx = config.tx_order[slot];
-        const double path = 2 * range - half_wl_design * ((config.array.tx_azimuth[tx] + config.array.rx_azimuth[rx]) * u.y() +
-                                                          (config.array.tx_elevation[tx] + config.array.rx_elevation[rx]) * u.z());
+        const double path =
+            2 * range - half_wl_design * ((config.array.tx_azimuth[tx] + config.array.rx_azimuth[rx] - tb.centre_a) * u.y() +
+                                          (config.array.tx_elevation[tx] + config.array.rx_elevation[rx] - tb.centre_e) * u.z());
         const double tau = path / kC, t_ramp = tb.t_adc + n / tb.fs;
         const double exact = 2 * kPi * (tb.f0 * tau + tb.slope * tau * t_ramp - tb.slope * tau * tau / 2);
         const double diff = std::abs(wrap(std::arg(std::complex<double>(cube.at(0, slot, rx, n))) - exact));

@@ -4,10 +4,12 @@
 // ---------------------------------------------------------------------------------------------
 // SIGNAL CONVENTION (what a point target produces in the AdcCube, before noise and int16)
 // ---------------------------------------------------------------------------------------------
-// Radar frame: x boresight, y left, z up (FLU), origin at the virtual array's element (0, 0).
-// Antenna positions (RadarConfig::array, integers in half-wavelengths at design_frequency_ghz)
-// lie along +y (azimuth index a, increasing to the radar's LEFT) and +z (elevation index e,
-// increasing UP). The direction to the target in the radar frame is the unit vector u, with
+// Radar frame: x boresight, y left, z up (FLU), origin at the array's phase centre: the mean over
+// the channels of the TX-RX midpoints, i.e. the mean TX position plus the mean RX position in
+// virtual-array indices (a_c, e_c). There every channel's Doppler (the slow-time change of its
+// array phase) and the array's angle refer to one point. Antenna positions (RadarConfig::array,
+// integers in half-wavelengths at design_frequency_ghz) lie along +y (azimuth index a,
+// increasing to the radar's LEFT) and +z (elevation index e, increasing UP). The direction to the target in the radar frame is the unit vector u, with
 // u_y = cos(phi) sin(theta), u_z = sin(phi): azimuth theta positive to the left, elevation phi
 // positive up.
 //
@@ -29,7 +31,8 @@
 //   psi = fc tau - S tau^2 / 2 - d (1 - S tau / fc) (a_kr u_y + e_kr u_z)      [cycles]
 //   cube(m, k, r, n) = A exp(j 2 pi (psi + x (n - N/2)))
 // where d = RadarDerived::element_spacing_wavelengths = 0.5 fc / f_design, a_kr and e_kr the
-// virtual channel's azimuth / elevation index (tx_azimuth[tx_order[k]] + rx_azimuth[r], ...).
+// virtual channel's azimuth / elevation index from the phase centre
+// (tx_azimuth[tx_order[k]] + rx_azimuth[r] - a_c, ...).
 //   A = K sqrt(rcs cos^p(incidence)) G(theta, phi) H_IF(x fs) / R^2   (LSB, radar equation)
 //   K = noise_rms_lsb sqrt(Pt Gt Gr lambda^2 / ((4 pi)^3 L k T0 F fs)),
 //   G = exp(-4 ln2 ((theta / bw_az)^2 + (phi / bw_el)^2))   (two-way voltage = one-way power pattern)
