@@ -119,8 +119,8 @@ struct RadarSimulator::Impl {
     // midpoints. The plane-wave steering phase -(tx + rx) . u is referenced to one point, and its
     // change from chirp to chirp gives every channel the Doppler of its own midpoint, so the summed
     // Doppler is that of the channels' mean midpoint. Referenced anywhere else, angle and Doppler
-    // belong to different points: the cascade's antenna 0 sits 4.2 cm off its phase centre, and a
-    // wall 1.2 m to the side then turned the ego-velocity by +0.5 deg (Doppler error
+    // belong to different points: the cascade's antenna 0 sits 4.2 cm off its phase centre, and
+    // walls 1.2 m to either side then turned the ego-velocity by +0.5 deg (Doppler error
     // -v c sin(theta) cos(theta) / r, found by rsrio-odometry-bench's corridor rows).
     const auto centre = [](std::vector<double>& v) {
       double mean = 0;
