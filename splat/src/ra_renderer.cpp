@@ -325,12 +325,9 @@ RenderStats RaRenderer<Scalar>::render(const GaussianScene& scene, const Eigen::
 }
 
 template <typename Scalar>
-RenderStats RaRenderer<Scalar>::render_impl(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
-                                            const std::span<const std::uint32_t>* gaussians,
-                                            Image<Scalar>& image) const {
-  if (image.rows() != grid_.range_bins || image.cols() != grid_.azimuth_bins)
-    image.resize(grid_.range_bins, grid_.azimuth_bins);
-  image.setZero();
+template <typename Pixel>
+RenderStats RaRenderer<Scalar>::draw(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
+                                     const std::span<const std::uint32_t>* gaussians, Pixel&& pixel) const {
   const Context ctx = make_context(grid_, options_);
   const Eigen::Matrix3d r_tw = radar_T_world.linear();
   const Eigen::Vector3d t_tw = radar_T_world.translation();
@@ -344,12 +341,12 @@ RenderStats RaRenderer<Scalar>::render_impl(const GaussianScene& scene, const Ei
     std::size_t pixels = 0;
     walk_rows(g, options_.cutoff_sigma, grid_.range_bins, first_azimuth_, last_azimuth_,
               [&](const RowSpan& s, double e22) {
-                Scalar* row = image.data() + static_cast<std::ptrdiff_t>(s.k) * cols;
+                const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(s.k) * cols;
                 Scalar value = static_cast<Scalar>(s.value) * amplitude;
                 Scalar ratio = static_cast<Scalar>(s.ratio);
                 const Scalar step = static_cast<Scalar>(e22);
                 for (int a = s.a0; a <= s.a1; ++a) {
-                  row[a] += value;
+                  pixel(g, base + a, value);
                   value *= ratio;
                   ratio *= step;
                 }
@@ -362,6 +359,17 @@ RenderStats RaRenderer<Scalar>::render_impl(const GaussianScene& scene, const Ei
 }
 
 template <typename Scalar>
+RenderStats RaRenderer<Scalar>::render_impl(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
+                                            const std::span<const std::uint32_t>* gaussians,
+                                            Image<Scalar>& image) const {
+  if (image.rows() != grid_.range_bins || image.cols() != grid_.azimuth_bins)
+    image.resize(grid_.range_bins, grid_.azimuth_bins);
+  image.setZero();
+  Scalar* data = image.data();
+  return draw(scene, radar_T_world, gaussians, [data](const Projection&, std::ptrdiff_t p, Scalar value) { data[p] += value; });
+}
+
+template <typename Scalar>
 void RaRenderer<Scalar>::render_directions(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
                                            std::span<const std::uint32_t> gaussians,
                                            PixelDirections<Scalar>& out) const {
@@ -370,29 +378,12 @@ void RaRenderer<Scalar>::render_directions(const GaussianScene& scene, const Eig
     if (m->rows() != rows || m->cols() != cols) m->resize(rows, cols);
     m->setZero();
   }
-  const Context ctx = make_context(grid_, options_);
-  const Eigen::Matrix3d r_tw = radar_T_world.linear();
-  const Eigen::Vector3d t_tw = radar_T_world.translation();
-  Projection g;
-  for_each(scene, &gaussians, [&](std::size_t i) {
-    project(scene, i, r_tw, t_tw, ctx, g);
-    if (!g.visible) return;
-    const Scalar amplitude = static_cast<Scalar>(g.amplitude);
-    const Scalar nx = static_cast<Scalar>(g.n.x()), ny = static_cast<Scalar>(g.n.y()), nz = static_cast<Scalar>(g.n.z());
-    walk_rows(g, options_.cutoff_sigma, rows, first_azimuth_, last_azimuth_, [&](const RowSpan& s, double e22) {
-      const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(s.k) * cols;
-      Scalar value = static_cast<Scalar>(s.value) * amplitude;
-      Scalar ratio = static_cast<Scalar>(s.ratio);
-      const Scalar step = static_cast<Scalar>(e22);
-      for (int a = s.a0; a <= s.a1; ++a) {
-        out.weight.data()[base + a] += value;
-        out.x.data()[base + a] += value * nx;
-        out.y.data()[base + a] += value * ny;
-        out.z.data()[base + a] += value * nz;
-        value *= ratio;
-        ratio *= step;
-      }
-    });
+  // Each Gaussian's unit direction in the radar frame, weighted by its contribution.
+  draw(scene, radar_T_world, &gaussians, [&out](const Projection& g, std::ptrdiff_t p, Scalar value) {
+    out.weight.data()[p] += value;
+    out.x.data()[p] += value * static_cast<Scalar>(g.n.x());
+    out.y.data()[p] += value * static_cast<Scalar>(g.n.y());
+    out.z.data()[p] += value * static_cast<Scalar>(g.n.z());
   });
   for (int k = 0; k < rows; ++k)
     for (int a = 0; a < cols; ++a) {

@@ -140,9 +140,9 @@ struct BackendOptions {
   // Each RD pixel's Doppler from where the map's Gaussians in it lie (their 3D directions, the
   // paper's per-Gaussian -r^T v; RdRenderer, PixelDirections) instead of from its azimuth at
   // elevation 0, which makes returns above and below the radar close in too fast and so pulls
-  // the velocity low (rsrio-splat-bench: best fit at 0.979 x the true speed at elevation 0,
-  // 0.997 x with the simulator's scatterers' directions). Off by default: with the map's own
-  // Gaussians it made sequence 1 better and sequences 3-5 0.3-0.6 % too long and worse (README).
+  // the velocity low (rsrio-splat-bench: best fit at 0.978 x the true speed at elevation 0,
+  // 0.996 x with the simulator's scatterers' directions). Off by default: with the map's own
+  // Gaussians it made sequences 3-5 0.3-0.6 % too long and worse, and sequence 1 worse (README).
   // The directions are made once per view and stage.
   bool rd_gaussian_directions = false;
   std::string psf_range_window = "hann";  // the DSP's windows (dsp.range_window / angle_window)

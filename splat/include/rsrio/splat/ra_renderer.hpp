@@ -112,6 +112,11 @@ class RaRenderer {
   // gaussians == nullptr: all.
   template <typename Visit>
   void for_each(const GaussianScene& scene, const std::span<const std::uint32_t>* gaussians, Visit&& visit) const;
+  // The forward draw: pixel(projection, index, value) for every pixel (row-major index) that a
+  // Gaussian reaches, with its contribution; shared by render and render_directions.
+  template <typename Pixel>
+  RenderStats draw(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
+                   const std::span<const std::uint32_t>* gaussians, Pixel&& pixel) const;
   RenderStats render_impl(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
                           const std::span<const std::uint32_t>* gaussians, Image<Scalar>& image) const;
   void backward_impl(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
