@@ -443,7 +443,12 @@ int main(int argc, char** argv) {
          << ", \"nan_guard_hits\": " << st.nan_guard_hits << ", \"rejected_frames\": " << st.rejected_frames
          << ", \"pose_s\": " << st.pose.total_s << ", \"mapping_s\": " << st.mapping.total_s
          << ", \"ba_s\": " << st.ba.total_s << ", \"ba_budget_stops\": " << st.ba.budget_stops
-         << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted << "}";
+         << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted
+         << ", \"loop_attempts\": " << st.loop_attempts << ", \"loop_closures\": " << st.loop_closures
+         << ", \"loop_rejected_score\": " << st.loop_rejected_score
+         << ", \"loop_rejected_ambiguous\": " << st.loop_rejected_ambiguous
+         << ", \"loop_below_threshold\": " << st.loop_below_threshold
+         << ", \"loop_rejected_refinement\": " << st.loop_rejected_refinement << "}";
     }
     js << "\n}\n";
     if (!js) throw std::runtime_error(path("stats.json") + ": write failed");

@@ -39,6 +39,20 @@ gtsam::Pose3 to_pose3(const Eigen::Isometry3d& T) {
   return gtsam::Pose3(gtsam::Rot3(q.normalized()), gtsam::Point3(T.translation()));
 }
 
+enum class PointClass { unusable, dynamic, static_point };
+
+/// Whether a CFAR point may seed the map and take part in revisit alignment: finite, strong
+/// enough, and static (a static point seen from a radar moving with v has range rate -u . v).
+PointClass classify_point(const rsrio::DspPoint& p, const Eigen::Vector3d& velocity, const BackendOptions& o) {
+  if (p.snr_db < o.min_point_snr_db) return PointClass::unusable;
+  const Eigen::Vector3d x(p.x, p.y, p.z);
+  const double r = x.norm();
+  if (!x.allFinite() || !(r > 0)) return PointClass::unusable;
+  const double expected = -x.dot(velocity) / r;
+  return std::abs(p.doppler_mps - expected) > o.static_doppler_tolerance_mps ? PointClass::dynamic
+                                                                            : PointClass::static_point;
+}
+
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -118,6 +132,33 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("init_min_spacing_m", o.init_min_spacing_m, {0.0, 10.0});
   node.read("static_doppler_tolerance_mps", o.static_doppler_tolerance_mps, {0.0, 100.0});
   node.read("min_point_snr_db", o.min_point_snr_db, {-100.0, 200.0});
+  node.read("loop_closure", o.loop_closure);
+  node.read("loop_min_age_s", o.loop_min_age_s, {0.0, 1e6});
+  node.read("loop_radius_m", o.loop_radius_m, {0.0, 1000.0});
+  node.read("loop_query_keyframes", o.loop_query_keyframes, {1, 1000});
+  node.read("loop_reference_keyframes", o.loop_reference_keyframes, {1, 100000});
+  node.read("loop_every_keyframes", o.loop_every_keyframes, {1, 100000});
+  node.read("loop_min_score", o.loop_min_score, {0.0, 1.0});
+  node.read("loop_min_gain", o.loop_min_gain, {0.0, 100.0});
+  node.read("loop_max_spread_m", o.loop_max_spread_m, {0.0, 100.0});
+  node.read("loop_max_spread_deg", o.loop_max_spread_deg, {0.0, 180.0});
+  node.read("loop_min_correction_m", o.loop_min_correction_m, {0.0, 100.0});
+  node.read("loop_min_correction_deg", o.loop_min_correction_deg, {0.0, 180.0});
+  node.read("loop_max_refinement_m", o.loop_max_refinement_m, {0.0, 100.0});
+  node.read("loop_max_refinement_deg", o.loop_max_refinement_deg, {0.0, 180.0});
+  {
+    OptionsNode m = node.child("loop_match");
+    m.read("search_m", o.loop.search_m, {0.0, 100.0});
+    m.read("search_deg", o.loop.search_deg, {0.0, 90.0});
+    m.read("cell_m", o.loop.cell_m, {1e-3, 10.0});
+    m.read("step_deg", o.loop.step_deg, {1e-3, 90.0});
+    m.read("sigma_m", o.loop.sigma_m, {1e-3, 10.0});
+    m.read("near_best_fraction", o.loop.near_best_fraction, {0.01, 0.999});
+    int max_query = static_cast<int>(o.loop.max_query_points);
+    m.read("max_query_points", max_query, {1, 1'000'000});
+    o.loop.max_query_points = static_cast<std::size_t>(max_query);
+    m.finish();
+  }
   node.finish();
   validate(o, node.file());
   return o;
@@ -186,7 +227,25 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  init_scale_m: " << o.init_scale_m << "\n"
       << "  init_min_spacing_m: " << o.init_min_spacing_m << "\n"
       << "  static_doppler_tolerance_mps: " << o.static_doppler_tolerance_mps << "\n"
-      << "  min_point_snr_db: " << o.min_point_snr_db << "\n";
+      << "  min_point_snr_db: " << o.min_point_snr_db << "\n"
+      << "  loop_closure: " << (o.loop_closure ? "true" : "false") << "\n"
+      << "  loop_min_age_s: " << o.loop_min_age_s << "\n"
+      << "  loop_radius_m: " << o.loop_radius_m << "\n"
+      << "  loop_query_keyframes: " << o.loop_query_keyframes << "\n"
+      << "  loop_reference_keyframes: " << o.loop_reference_keyframes << "\n"
+      << "  loop_every_keyframes: " << o.loop_every_keyframes << "\n"
+      << "  loop_min_score: " << o.loop_min_score << "\n"
+      << "  loop_min_gain: " << o.loop_min_gain << "\n"
+      << "  loop_max_spread_m: " << o.loop_max_spread_m << "\n"
+      << "  loop_max_spread_deg: " << o.loop_max_spread_deg << "\n"
+      << "  loop_min_correction_m: " << o.loop_min_correction_m << "\n"
+      << "  loop_min_correction_deg: " << o.loop_min_correction_deg << "\n"
+      << "  loop_max_refinement_m: " << o.loop_max_refinement_m << "\n"
+      << "  loop_max_refinement_deg: " << o.loop_max_refinement_deg << "\n"
+      << "  loop_match: {search_m: " << o.loop.search_m << ", search_deg: " << o.loop.search_deg
+      << ", cell_m: " << o.loop.cell_m << ", step_deg: " << o.loop.step_deg << ", sigma_m: " << o.loop.sigma_m
+      << ", near_best_fraction: " << o.loop.near_best_fraction << ", max_query_points: " << o.loop.max_query_points
+      << "}\n";
 }
 
 void validate(const BackendOptions& o, const std::string& file) {
@@ -207,6 +266,13 @@ void validate(const BackendOptions& o, const std::string& file) {
     fail("max_keyframe_images", "an integer >= mapping_keyframes and ba_max_keyframes (those keep their images)");
   if (o.odometry_prior && !(o.odometry_prior_sigma_m > 0)) fail("odometry_prior_sigma_m", "a number > 0");
   if (o.odometry_prior && !(o.odometry_prior_sigma_deg > 0)) fail("odometry_prior_sigma_deg", "a number > 0");
+  if (!(o.loop.cell_m > 0)) fail("loop_match.cell_m", "a number > 0");
+  if (!(o.loop.step_deg > 0)) fail("loop_match.step_deg", "a number > 0");
+  if (!(o.loop.sigma_m > 0)) fail("loop_match.sigma_m", "a number > 0");
+  if (!(o.loop.near_best_fraction > 0 && o.loop.near_best_fraction < 1))
+    fail("loop_match.near_best_fraction", "a number in (0, 1)");
+  if (o.loop.search_m / o.loop.cell_m > 200 || o.loop.search_deg / o.loop.step_deg > 200)
+    fail("loop_match.search_m", "at most 200 steps each way (search_m / cell_m, search_deg / step_deg)");
   if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
   for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
     const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";
@@ -398,6 +464,9 @@ bool Backend::add_frame(const BackendFrame& frame) {
   // Row-major [range][column]: the first range_bins rows are the cut grid's image.
   kf.ra = Eigen::Map<const Image<float>>(frame.dsp->ra.data(), grid_.range_bins, grid_.azimuth_bins);
   kf.rd = Eigen::Map<const Image<float>>(frame.dsp->rd.data(), grid_.range_bins, grid_.doppler_bins);
+  for (const rsrio::DspPoint& p : frame.dsp->points)
+    if (classify_point(p, v_odom, options_) == PointClass::static_point) kf.points.emplace_back(p.x, p.y, p.z);
+  if (!keyframes_.empty()) kf.loop_yaw = keyframes_.back().loop_yaw;
   const bool first = keyframes_.empty();
   if (first) {
     kf.velocity_correction = v_odom;
@@ -417,7 +486,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   const std::size_t k = keyframes_.size() - 1;
 
   if (first) {
-    add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
+    add_gaussians(k, frame.dsp->points, v_odom);
     // The first map: one view, a fixed number of iterations (no budget: everything after
     // builds on it, and one view is cheap).
     StageOptions first_mapping = options_.mapping;
@@ -426,6 +495,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   } else {
     // 1. pose refinement of the newest keyframe (RA + RD), the map fixed; on what the map covers.
     // The masked targets serve this stage only: mapping and BA compare the whole images.
+    if (options_.loop_closure) align_revisit(k);
     Keyframe& newest = keyframes_[k];
     const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
     if (options_.pose_coverage_mask) mask_uncovered_targets(k);
@@ -433,7 +503,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
     newest.ra_target = ra_target;
     newest.rd_target = rd_target;
     // New Gaussians from this keyframe's points, placed with the refined pose.
-    add_gaussians(keyframes_[k], frame.dsp->points, v_odom);
+    add_gaussians(k, frame.dsp->points, v_odom);
     // 2. mapping over the last N_map keyframes (RA only), poses fixed.
     std::vector<std::size_t> mapping_views;
     const std::size_t n_map = static_cast<std::size_t>(options_.mapping_keyframes);
@@ -480,7 +550,9 @@ void Backend::start_map(Keyframe& first) {
       std::make_unique<KeyframeObjective<float>>(grid_, ra_options_, rd_options_, ra_loss_options_, rd_loss_options_);
 }
 
-void Backend::add_gaussians(const Keyframe& kf, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity) {
+void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity) {
+  const Keyframe& kf = keyframes_[k];
+  const auto anchor = static_cast<std::int32_t>(k);
   const double spacing = options_.init_min_spacing_m;
   std::vector<Eigen::Vector3d> added;
   std::vector<std::uint32_t> near;
@@ -488,16 +560,10 @@ void Backend::add_gaussians(const Keyframe& kf, std::span<const rsrio::DspPoint>
   const double log_scale = std::log(options_.init_scale_m);
   std::vector<std::pair<Eigen::Vector3d, double>> accepted;
   for (const rsrio::DspPoint& p : points) {
-    if (p.snr_db < options_.min_point_snr_db) continue;
+    const PointClass c = classify_point(p, velocity, options_);
+    if (c == PointClass::dynamic) ++stats_.points_rejected_dynamic;
+    if (c != PointClass::static_point) continue;
     const Eigen::Vector3d x(p.x, p.y, p.z);
-    const double r = x.norm();
-    if (!x.allFinite() || !(r > 0)) continue;
-    // A static point seen from a radar moving with v has range rate -u . v.
-    const double expected = -x.dot(velocity) / r;
-    if (std::abs(p.doppler_mps - expected) > options_.static_doppler_tolerance_mps) {
-      ++stats_.points_rejected_dynamic;
-      continue;
-    }
     const Eigen::Vector3d w = kf.world_T_radar * x;
     if (spacing > 0) {
       scene_.query_radius(w, spacing, near);
@@ -516,11 +582,13 @@ void Backend::add_gaussians(const Keyframe& kf, std::span<const rsrio::DspPoint>
     accepted.emplace_back(w, rho);
   }
   for (const auto& [w, rho] : accepted) {
-    if (scene_.add(w, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(log_scale), std::log(rho)))
+    if (scene_.add(w, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(log_scale), std::log(rho))) {
       ++stats_.gaussians_added;
+      anchors_.push_back(anchor);
+    }
   }
   if (scene_.size() > static_cast<std::size_t>(options_.max_gaussians))
-    scene_adam_.remap_scene(scene_.enforce_cap(kf.world_T_radar.translation()));
+    remap_scene(scene_.enforce_cap(kf.world_T_radar.translation()));
 }
 
 std::vector<std::size_t> radius_window(std::span<const Eigen::Vector3d> positions, double radius_m, std::size_t cap) {
@@ -581,7 +649,8 @@ Eigen::Vector3d Backend::velocity_of(std::size_t k, RadarVelocity* jacobians) co
 }
 
 void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
-                        bool use_rd, const StageOptions& stage, int max_iterations, StageStats& st) {
+                        bool use_rd, const StageOptions& stage, int max_iterations, StageStats& st,
+                        const std::vector<char>* drawable, bool priors) {
   const auto start = std::chrono::steady_clock::now();
   ++st.runs;
   use_rd = use_rd && options_.rd_loss && options_.rd_weight > 0;
@@ -617,6 +686,8 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   std::vector<std::uint32_t> rows;
   for (std::size_t i = 0; i < views.size(); ++i) {
     scene_.query_radius(keyframes_[views[i]].world_T_radar.translation(), radius, lists[i]);
+    if (drawable != nullptr)
+      std::erase_if(lists[i], [&](std::uint32_t g) { return g >= drawable->size() || !(*drawable)[g]; });
     rows.insert(rows.end(), lists[i].begin(), lists[i].end());
   }
   std::sort(rows.begin(), rows.end());
@@ -677,7 +748,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
         grad_left[static_cast<std::size_t>(pose_row[k - 1])] += vj.d_previous.transpose() * g_v;
     }
     if (optimise_scene) loss += scale_regulariser(scene_, rows, reg, &gradients_);
-    if (options_.odometry_prior) loss += odometry_prior(poses, pose_row, grad_left);
+    if (options_.odometry_prior && priors) loss += odometry_prior(poses, pose_row, grad_left);
     for (std::size_t r = 0; r < poses.size(); ++r) {
       if (planar) {
         const Eigen::Vector3d g =
@@ -748,7 +819,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   }
   if (optimise_scene) {
     const std::uint64_t before = scene_.removed_non_finite();
-    scene_adam_.remap_scene(scene_.sanitize());
+    remap_scene(scene_.sanitize());
     stats_.nan_guard_hits += scene_.removed_non_finite() - before;
   }
   const double elapsed = seconds_since(start);
@@ -781,7 +852,8 @@ double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std:
     if (options_.odometry_yaw_sigma_deg > 0) {
       const PlanarPose p = planar(keyframes_[k].world_T_radar);
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
-      loss += planar_yaw_prior(p, odom_radar(keyframes_[k]).yaw, options_.odometry_yaw_sigma_deg * kDeg, &g);
+      loss += planar_yaw_prior(p, odom_radar(keyframes_[k]).yaw + keyframes_[k].loop_yaw,
+                               options_.odometry_yaw_sigma_deg * kDeg, &g);
       grad_left[static_cast<std::size_t>(pose_row[k])] += left_increment_jacobian(p) * g;
     }
   }
@@ -790,9 +862,9 @@ double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std:
 
 void Backend::cleanup_scene() {
   const std::uint64_t before = scene_.removed_non_finite();
-  scene_adam_.remap_scene(scene_.sanitize());
+  remap_scene(scene_.sanitize());
   stats_.nan_guard_hits += scene_.removed_non_finite() - before;
-  scene_adam_.remap_scene(scene_.prune());
+  remap_scene(scene_.prune());
 }
 
 void Backend::evict_keyframe_images() {
@@ -816,6 +888,7 @@ void Backend::evict_keyframe_images() {
     if (farthest == keyframes_.size()) break;
     Keyframe& kf = keyframes_[farthest];
     for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
+    kf.points = {};
     ++stats_.keyframe_images_evicted;
     --with_images;
   }
@@ -848,8 +921,8 @@ void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_re
   }
 }
 
-void Backend::mask_uncovered_targets(std::size_t k) {
-  const KeyframeRender render = render_keyframe(k);
+void Backend::mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable) {
+  const KeyframeRender render = render_keyframe(k, drawable);
   Image<float> ra_c, rd_c;
   objective_->ra_loss().prepare_measurement(render.ra_rendered, ra_c);
   objective_->rd_loss().prepare_measurement(render.rd_rendered, rd_c);
@@ -861,13 +934,147 @@ void Backend::mask_uncovered_targets(std::size_t k) {
   mask_uncovered(ra_c, rd_c, knee(0, 0), options_.coverage_margin_bins, kf.ra_target, kf.rd_target);
 }
 
+void Backend::remap_scene(const SceneRemap& remap) {
+  scene_adam_.remap_scene(remap);
+  std::vector<std::int32_t> anchors(remap.size(), -1);
+  for (std::size_t i = 0; i < remap.size(); ++i)
+    if (remap[i] >= 0 && static_cast<std::size_t>(remap[i]) < anchors_.size())
+      anchors[i] = anchors_[static_cast<std::size_t>(remap[i])];
+  anchors_ = std::move(anchors);
+}
+
+void Backend::align_revisit(std::size_t k) {
+  if (last_loop_attempt_ > 0 && k < last_loop_attempt_ + static_cast<std::size_t>(options_.loop_every_keyframes)) return;
+  Keyframe& newest = keyframes_[k];
+  auto xy = [](const Eigen::Isometry3d& T) { return Eigen::Vector2d(T.translation().x(), T.translation().y()); };
+  // The earlier pass: keyframes older than loop_min_age_s within loop_radius_m, nearest first.
+  std::vector<std::pair<double, std::size_t>> old;
+  for (std::size_t i = 0; i < k; ++i) {
+    const Keyframe& kf = keyframes_[i];
+    if (newest.t - kf.t < options_.loop_min_age_s || kf.points.empty()) continue;
+    const double d = (xy(kf.world_T_radar) - xy(newest.world_T_radar)).norm();
+    if (d <= options_.loop_radius_m) old.emplace_back(d, i);
+  }
+  if (old.empty()) return;
+  std::sort(old.begin(), old.end());
+  if (old.size() > static_cast<std::size_t>(options_.loop_reference_keyframes))
+    old.resize(static_cast<std::size_t>(options_.loop_reference_keyframes));
+  last_loop_attempt_ = k;
+  ++stats_.loop_attempts;
+  auto world_points = [&](std::size_t i, std::vector<Eigen::Vector2d>& out) {
+    for (const Eigen::Vector3f& p : keyframes_[i].points) {
+      const Eigen::Vector3d w = keyframes_[i].world_T_radar * p.cast<double>();
+      out.emplace_back(w.x(), w.y());
+    }
+  };
+  std::vector<Eigen::Vector2d> reference, query;
+  for (const auto& [d, i] : old) world_points(i, reference);
+  const std::size_t q = static_cast<std::size_t>(options_.loop_query_keyframes);
+  for (std::size_t i = k + 1 > q ? k + 1 - q : 0; i <= k; ++i)
+    if (newest.t - keyframes_[i].t < options_.loop_min_age_s) world_points(i, query);
+  const PlanarMatch m = match_planar(reference, query, options_.loop);
+  if (!m.valid || m.score < options_.loop_min_score) {
+    ++stats_.loop_rejected_score;
+    return;
+  }
+  if (m.spread_m > options_.loop_max_spread_m || m.spread_deg > options_.loop_max_spread_deg) {
+    ++stats_.loop_rejected_ambiguous;
+    return;
+  }
+  // Already aligned: the correction is small or explains hardly more than none.
+  const Eigen::Isometry3d C = m.correction.isometry();
+  const Eigen::Vector3d shift = C * newest.world_T_radar.translation() - newest.world_T_radar.translation();
+  if (m.score < (1 + options_.loop_min_gain) * m.score_at_zero ||
+      (shift.head<2>().norm() < options_.loop_min_correction_m &&
+       std::abs(m.correction.dyaw) < options_.loop_min_correction_deg * kDeg)) {
+    ++stats_.loop_below_threshold;
+    return;
+  }
+  // The match's correction is good to a few tenths of a degree (its field is 15 cm wide and the
+  // two passes see the walls from different places); the constraint takes the newest keyframe's
+  // pose from its RA image aligned against the earlier pass's Gaussians alone, started there
+  // (no RD: its velocity would see the jump from the previous keyframe; no odometry priors: they
+  // hold the pose to the drifted chain).
+  const Eigen::Isometry3d start = C * newest.world_T_radar, drifted = newest.world_T_radar;
+  std::vector<char> earlier(scene_.size(), 0);
+  for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g)
+    earlier[g] = anchors_[g] >= 0 && newest.t - keyframes_[static_cast<std::size_t>(anchors_[g])].t >= options_.loop_min_age_s;
+  newest.world_T_radar = start;
+  const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
+  if (options_.pose_coverage_mask) mask_uncovered_targets(k, &earlier);
+  run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, &earlier, false);
+  const Eigen::Isometry3d aligned = newest.world_T_radar;
+  newest.world_T_radar = drifted;
+  newest.ra_target = ra_target;
+  newest.rd_target = rd_target;
+  const Eigen::Isometry3d refinement = start.inverse() * aligned;
+  if (refinement.translation().head<2>().norm() > options_.loop_max_refinement_m ||
+      std::abs(Eigen::AngleAxisd(refinement.linear()).angle()) > options_.loop_max_refinement_deg * kDeg) {
+    ++stats_.loop_rejected_refinement;
+    return;
+  }
+  // The constraint: the newest keyframe, aligned, in the frame of the nearest earlier keyframe.
+  auto planar3 = [](const Eigen::Isometry3d& T) {
+    const PlanarPose p = PlanarPose::from_world_T_radar(T);
+    return Eigen::Vector3d(p.x, p.y, p.yaw);
+  };
+  const std::size_t j = old.front().second;
+  loops_.push_back({j, k, planar_between(planar3(keyframes_[j].world_T_radar), planar3(aligned))});
+  std::vector<Eigen::Vector3d> before(keyframes_.size());
+  for (std::size_t i = 0; i < keyframes_.size(); ++i) before[i] = planar3(keyframes_[i].world_T_radar);
+  std::vector<Eigen::Vector3d> after;
+  try {
+    after = close_loops(before, loops_, PoseGraphOptions{});
+  } catch (const std::exception&) {
+    // GTSAM refused the graph (an indeterminate system): the loop is dropped, nothing moves.
+    loops_.pop_back();
+    ++stats_.loop_rejected_refinement;
+    return;
+  }
+  // Each keyframe moves by D_i = after_i before_i^-1 (about the vertical: heights, roll and
+  // pitch kept), and its Gaussians with it.
+  std::vector<Eigen::Isometry3d> moves(keyframes_.size(), Eigen::Isometry3d::Identity());
+  for (std::size_t i = 0; i < keyframes_.size(); ++i) {
+    const double dyaw = after[i].z() - before[i].z();
+    if (before[i] == after[i]) continue;
+    Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
+    D.linear() = Eigen::AngleAxisd(dyaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector2d t = after[i].head<2>() - D.linear().topLeftCorner<2, 2>() * before[i].head<2>();
+    D.translation() = Eigen::Vector3d(t.x(), t.y(), 0.0);
+    moves[i] = D;
+    keyframes_[i].world_T_radar = D * keyframes_[i].world_T_radar;
+    keyframes_[i].loop_yaw += dyaw;
+  }
+  std::span<double> means = scene_.mutable_means();
+  std::span<double> rotations = scene_.mutable_rotations();
+  for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g) {
+    if (anchors_[g] < 0) continue;
+    const Eigen::Isometry3d& D = moves[static_cast<std::size_t>(anchors_[g])];
+    Eigen::Map<Eigen::Vector3d> mu(&means[3 * g]);
+    mu = D * Eigen::Vector3d(mu);
+    const Eigen::Quaterniond r(D.linear());
+    double* qs = &rotations[4 * g];
+    const Eigen::Quaterniond moved = r * Eigen::Quaterniond(qs[0], qs[1], qs[2], qs[3]);
+    qs[0] = moved.w();
+    qs[1] = moved.x();
+    qs[2] = moved.y();
+    qs[3] = moved.z();
+  }
+  ++stats_.loop_closures;
+  const Eigen::Isometry3d total = aligned * drifted.inverse();
+  stats_.loop_last_correction_m = (aligned.translation() - drifted.translation()).head<2>().norm();
+  stats_.loop_last_correction_deg = std::atan2(total.linear()(1, 0), total.linear()(0, 0)) / kDeg;
+}
+
 void Backend::update_correction() {
   const Keyframe& newest = keyframes_.back();
   const Eigen::Isometry3d map_T_body = newest.world_T_radar * options_.body_T_radar.inverse();
   map_T_odom_ = map_T_body * newest.odom_T_body.inverse();
 }
 
-KeyframeRender Backend::render_keyframe(std::size_t k) {
+KeyframeRender Backend::render_keyframe(std::size_t k) { return render_keyframe(k, nullptr); }
+
+KeyframeRender Backend::render_keyframe(std::size_t k, const std::vector<char>* drawable) {
   if (k >= keyframes_.size() || !objective_) throw std::out_of_range("Backend::render_keyframe: no such keyframe");
   if (!keyframes_[k].has_images())
     throw std::out_of_range("Backend::render_keyframe: keyframe " + std::to_string(k) + "'s images were evicted");
@@ -880,6 +1087,8 @@ KeyframeRender Backend::render_keyframe(std::size_t k) {
   std::vector<std::uint32_t> list;
   scene_.update_index();
   scene_.query_radius(kf.world_T_radar.translation(), radius, list);
+  if (drawable != nullptr)
+    std::erase_if(list, [&](std::uint32_t g) { return g >= drawable->size() || !(*drawable)[g]; });
   objective_->ra_renderer().render(scene_, kf.world_T_radar.inverse(), list, out.ra_rendered);
   out.velocity = velocity_of(k, nullptr);
   PixelDirections<float> directions;

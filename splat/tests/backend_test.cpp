@@ -137,8 +137,16 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  ba_sliding_keyframes: 5\n"
       "  rd_loss: false\n"
       "  pose_dof: 6\n"
-      "  pose: {max_iterations: 20, time_budget_s: 0.05}\n");
+      "  pose: {max_iterations: 20, time_budget_s: 0.05}\n"
+      "  loop_closure: false\n"
+      "  loop_min_age_s: 12\n"
+      "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n");
   CHECK(o.mapping_keyframes == 7);
+  CHECK_FALSE(o.loop_closure);
+  CHECK(o.loop_min_age_s == 12);
+  CHECK(o.loop.search_m == 1.5);
+  CHECK(o.loop.sigma_m == 0.1);
+  CHECK(o.loop.cell_m == PlanarMatchOptions{}.cell_m);
   CHECK(o.ba_window == "sliding");
   CHECK(o.ba_sliding_keyframes == 5);
   CHECK_FALSE(o.rd_loss);
@@ -175,6 +183,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {level_floor: yes please}\n", "level_floor");
   fails_on("backend: {max_keyframe_images: 5}\n", "max_keyframe_images");  // < mapping_keyframes
   fails_on("backend: {coverage_margin_bins: -1}\n", "coverage_margin_bins");
+  fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
+  fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
+  fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
 }
 
 TEST_CASE("mask_uncovered: pose refinement keeps the measured pixels near what the map renders", "[splat][backend]") {
@@ -610,4 +621,63 @@ TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[spl
   CHECK(hi - lo > 100);  // a picture, not a flat field
   CHECK_THROWS_AS(write_image_pair_png((dir / "bad.png").string(), k.ra_measured, k.rd_rendered), std::runtime_error);
   std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's basin is aligned and the loop closed",
+          "[splat][backend]") {
+  const SyntheticRig rig(8);
+  const auto& [config, grids, grid, world] = rig;
+  // Out 2.4 m along x and back to the start (the radar facing +x throughout) at 0.6 m/s, 10 Hz;
+  // the frontend's heading drifts by 0.06 deg a frame (gyro bias) and its distance is 3 % long:
+  // back at the start it is ~0.3 m and 5 deg off, far outside what the images pull in.
+  auto walk = [&](bool loop_closure, BackendStats& stats) {
+    BackendOptions o = deterministic_options(10, 5, 5, 20);
+    o.max_image_range_m = 12;
+    o.loop_closure = loop_closure;
+    o.loop_min_age_s = 3;        // the first pass's keyframes, seconds ago in this short walk
+    o.loop_every_keyframes = 1;
+    o.loop_query_keyframes = 3;
+    o.loop.search_deg = 8;
+    Backend backend(config, grids, o);
+    const double dt = 0.1, speed = 0.6;
+    const int half = 40;
+    Eigen::Isometry3d odom = Eigen::Isometry3d::Identity();
+    double x = 0;
+    for (int k = 0; k <= 2 * half; ++k) {
+      const double v = k <= half ? speed : -speed;
+      if (k > 0) {
+        x += v * dt;
+        Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+        step.translation() = Eigen::Vector3d(v * dt * 1.03, 0, 0);
+        step.linear() = Eigen::AngleAxisd(0.06 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        odom = odom * step;
+      }
+      Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+      truth.translation() = Eigen::Vector3d(x, 0, 0);
+      const SyntheticFrame f = synthesise(world, grid, truth, Eigen::Vector3d(v, 0, 0));
+      const rsrio::DspResult r = f.view();
+      backend.add_frame({k * dt, pose3(odom), &r});
+    }
+    stats = backend.stats();
+    // The newest keyframe is back at the start: its error, position and heading.
+    const gtsam::Pose3 last = backend.keyframe_poses().back().second;
+    const double t = backend.keyframe_poses().back().first;
+    const int k = static_cast<int>(std::lround(t / dt));
+    const double truth_x = speed * dt * (k <= half ? k : 2 * half - k);
+    const double yaw = std::atan2(last.rotation().matrix()(1, 0), last.rotation().matrix()(0, 0));
+    return std::pair{(last.translation().head<2>() - Eigen::Vector2d(truth_x, 0)).norm(), std::abs(yaw) / kDeg};
+  };
+  BackendStats with_stats, without_stats;
+  const auto [err_without, yaw_without] = walk(false, without_stats);
+  const auto [err_with, yaw_with] = walk(true, with_stats);
+  std::printf("out-and-back walk: final keyframe error without loop closure %.3f m / %.2f deg, with %.3f m / %.2f deg "
+              "(%llu attempts, %llu loops)\n",
+              err_without, yaw_without, err_with, yaw_with, static_cast<unsigned long long>(with_stats.loop_attempts),
+              static_cast<unsigned long long>(with_stats.loop_closures));
+  CHECK(without_stats.loop_attempts == 0);
+  CHECK(with_stats.loop_closures >= 1);
+  CHECK(yaw_without > 2.0);          // the drift is there without it ...
+  CHECK(yaw_with < 0.5 * yaw_without);  // ... and the loop takes most of it out
+  CHECK(err_with < err_without);
+  CHECK(with_stats.nan_guard_hits == 0);
 }

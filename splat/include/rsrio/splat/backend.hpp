@@ -1,5 +1,8 @@
 // The RadarSplat++ backend (paper Sec. III-E, SPEC Sec. 9): keyframes from the frontend's poses,
 // a Gaussian map initialised from the keyframes' CFAR points, and per new keyframe
+//   0. (not in the paper, loop_closure) on a revisit, alignment against the earlier pass and a
+//      loop constraint in a pose graph that moves the keyframes and their Gaussians
+//      (align_revisit, loop_closure.hpp),
 //   1. pose refinement of the newest keyframe (RA + RD loss, poses only),
 //   2. mapping over the last N_map keyframes (RA loss + scale regulariser, Gaussians only),
 //   3. bundle adjustment over the keyframes within r_BA of the newest (or the last N, the
@@ -67,6 +70,7 @@
 #include "rsrio/splat/adam.hpp"
 #include "rsrio/splat/gaussian_scene.hpp"
 #include "rsrio/splat/grid.hpp"
+#include "rsrio/splat/loop_closure.hpp"
 #include "rsrio/splat/losses.hpp"
 #include "rsrio/splat/pose.hpp"
 #include "rsrio/splat/ra_renderer.hpp"
@@ -175,6 +179,34 @@ struct BackendOptions {
   double lr_rotations = 1e-3;
   double lr_log_scales = 5e-3;
   double lr_log_returns = 0.03;
+  // ---- revisit alignment (loop_closure.hpp; not in the paper). Before pose refinement, every
+  // loop_every_keyframes keyframes that have earlier-pass keyframes (older than loop_min_age_s)
+  // within loop_radius_m: the static CFAR points of the newest loop_query_keyframes keyframes
+  // are matched against those of the loop_reference_keyframes nearest earlier-pass keyframes
+  // (match_planar over +-loop.search_m, +-loop.search_deg). A match whose mean field value is at
+  // least loop_min_score, at least loop_min_gain above that without correction, and whose
+  // near-best candidates spread less than loop_max_spread_m / loop_max_spread_deg (a corridor's
+  // along-track ambiguity does not pass) and that corrects by more than loop_min_correction_m or
+  // loop_min_correction_deg becomes a loop constraint; close_loops spreads it over the keyframes
+  // since the earlier pass, and each keyframe's Gaussians move with it.
+  bool loop_closure = true;
+  double loop_min_age_s = 30.0;
+  double loop_radius_m = 5.0;
+  int loop_query_keyframes = 10;
+  int loop_reference_keyframes = 20;
+  int loop_every_keyframes = 5;
+  double loop_min_score = 0.25;
+  double loop_min_gain = 0.05;
+  double loop_max_spread_m = 0.15;
+  double loop_max_spread_deg = 1.5;
+  double loop_min_correction_m = 0.03;
+  double loop_min_correction_deg = 0.2;
+  // The accepted match starts an alignment of the newest keyframe's RA image against the earlier
+  // pass's Gaussians (pose-refinement iterations, no priors); it may move the match's pose by
+  // at most this much, else the match is refused.
+  double loop_max_refinement_m = 0.3;
+  double loop_max_refinement_deg = 2.0;
+  PlanarMatchOptions loop;
   // ---- scene
   int max_gaussians = 100'000;
   // Keyframes whose images are kept (about 160 kB each on the cascade): beyond it the images of
@@ -231,9 +263,15 @@ struct BackendStats {
   std::uint64_t gaussians_added = 0;
   std::uint64_t points_rejected_dynamic = 0;
   std::uint64_t keyframe_images_evicted = 0;  // keyframes whose images were dropped (max_keyframe_images)
+  // Revisit alignment: matches tried, loops closed, and matches refused (each reason counted).
+  std::uint64_t loop_attempts = 0, loop_closures = 0;
+  std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
+  std::uint64_t loop_rejected_refinement = 0;  // the image alignment moved the match too far, or the graph failed
+  double loop_last_correction_m = 0, loop_last_correction_deg = 0;
   std::size_t gaussians = 0;
   double rd_gain = 0;
   StageStats pose, mapping, ba;
+  StageStats loop_alignment;  // the revisit's image alignment against the earlier pass's map
 };
 
 /// One keyframe as the backend holds it.
@@ -244,6 +282,10 @@ struct Keyframe {
   Eigen::Vector3d velocity_correction = Eigen::Vector3d::Zero();    // the constant of the header
   Image<float> ra, rd;                          // measured, linear
   Image<float> ra_target, rd_target;            // compressed (ImageLoss::prepare_measurement)
+  std::vector<Eigen::Vector3f> points;          // static CFAR points, radar frame (revisit alignment)
+  // The heading that loop closures added to the frontend's at this keyframe: the yaw prior's
+  // reference is the frontend's heading plus it (a loop correction is not undone by the prior).
+  double loop_yaw = 0;
   bool has_images() const { return ra.size() > 0; }  // false once evicted (max_keyframe_images)
 };
 
@@ -351,10 +393,14 @@ class Backend {
   bool accept(const BackendFrame& frame) const;
   bool is_keyframe(double t, const Eigen::Isometry3d& odom_T_body) const;
   void start_map(Keyframe& first);
-  void add_gaussians(const Keyframe& keyframe, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity);
+  /// New Gaussians from keyframe k's static points (anchored to k).
+  void add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity);
   /// The stages: `poses` = keyframes whose pose is optimised, `views` = keyframes rendered.
+  /// `drawable` (per Gaussian, may be null: all) limits what the views draw; `priors` false
+  /// leaves the odometry priors out (the revisit's alignment against the earlier pass's map).
   void run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
-                 bool use_rd, const StageOptions& stage, int max_iterations, StageStats& stats);
+                 bool use_rd, const StageOptions& stage, int max_iterations, StageStats& stats,
+                 const std::vector<char>* drawable = nullptr, bool priors = true);
   std::vector<std::size_t> ba_window() const;
   /// The odometry prior of every consecutive keyframe pair with an optimised pose: its loss, and
   /// its gradients added to grad_left (rows of pose_row).
@@ -365,8 +411,14 @@ class Backend {
   void evict_keyframe_images();
   /// The newest keyframe's targets for pose refinement (pose_coverage_mask): where the map renders
   /// nothing near, the rendered image itself.
-  void mask_uncovered_targets(std::size_t k);
+  void mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable = nullptr);
+  KeyframeRender render_keyframe(std::size_t k, const std::vector<char>* drawable);
   void update_correction();
+  /// Revisit alignment of the newest keyframe k (options' loop_*): match, and when accepted, a
+  /// loop constraint, the pose graph, and the keyframes and their Gaussians moved.
+  void align_revisit(std::size_t k);
+  /// The scene's structure changed: the optimiser's state and the anchors follow.
+  void remap_scene(const SceneRemap& remap);
 
   BackendOptions options_;
   RadarImageGrid grid_;                // the DSP's grid, cut at max_image_range_m
@@ -378,6 +430,9 @@ class Backend {
   GaussianScene scene_;
   SplatAdam scene_adam_;
   std::vector<Keyframe> keyframes_;
+  std::vector<std::int32_t> anchors_;  // per Gaussian: the keyframe that created it (loop corrections move it with it)
+  std::vector<LoopConstraint> loops_;
+  std::size_t last_loop_attempt_ = 0;
   Eigen::Isometry3d map_T_odom_ = Eigen::Isometry3d::Identity();
   BackendStats stats_;
   // The previous frame (for the frontend's instantaneous velocity).
