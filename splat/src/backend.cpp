@@ -271,8 +271,14 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (!(o.loop.sigma_m > 0)) fail("loop_match.sigma_m", "a number > 0");
   if (!(o.loop.near_best_fraction > 0 && o.loop.near_best_fraction < 1))
     fail("loop_match.near_best_fraction", "a number in (0, 1)");
-  if (o.loop.search_m / o.loop.cell_m > 200 || o.loop.search_deg / o.loop.step_deg > 200)
-    fail("loop_match.search_m", "at most 200 steps each way (search_m / cell_m, search_deg / step_deg)");
+  if (!(o.loop.search_m >= 0 && o.loop.search_m / o.loop.cell_m <= 200))
+    fail("loop_match.search_m", "a number >= 0, at most 200 cell_m steps");
+  if (!(o.loop.search_deg >= 0 && o.loop.search_deg / o.loop.step_deg <= 200))
+    fail("loop_match.search_deg", "a number >= 0, at most 200 step_deg steps");
+  if (o.loop.max_query_points < 1) fail("loop_match.max_query_points", "an integer >= 1");
+  if (o.loop_query_keyframes < 1) fail("loop_query_keyframes", "an integer >= 1");
+  if (o.loop_reference_keyframes < 1) fail("loop_reference_keyframes", "an integer >= 1");
+  if (o.loop_every_keyframes < 1) fail("loop_every_keyframes", "an integer >= 1");
   if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
   for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
     const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";

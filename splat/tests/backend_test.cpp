@@ -185,7 +185,11 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {coverage_margin_bins: -1}\n", "coverage_margin_bins");
   fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
+  fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
+  BackendOptions no_query;
+  no_query.loop.max_query_points = 0;
+  CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);
 }
 
 TEST_CASE("mask_uncovered: pose refinement keeps the measured pixels near what the map renders", "[splat][backend]") {
