@@ -1067,9 +1067,6 @@ void Backend::align_revisit(std::size_t k) {
     qs[3] = moved.z();
   }
   ++stats_.loop_closures;
-  const Eigen::Isometry3d total = aligned * drifted.inverse();
-  stats_.loop_last_correction_m = (aligned.translation() - drifted.translation()).head<2>().norm();
-  stats_.loop_last_correction_deg = std::atan2(total.linear()(1, 0), total.linear()(0, 0)) / kDeg;
 }
 
 void Backend::update_correction() {

@@ -267,7 +267,6 @@ struct BackendStats {
   std::uint64_t loop_attempts = 0, loop_closures = 0;
   std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
   std::uint64_t loop_rejected_refinement = 0;  // the image alignment moved the match too far, or the graph failed
-  double loop_last_correction_m = 0, loop_last_correction_deg = 0;
   std::size_t gaussians = 0;
   double rd_gain = 0;
   StageStats pose, mapping, ba;
