@@ -48,17 +48,29 @@ PlanarMatch match_planar(std::span<const Eigen::Vector2d> reference, std::span<c
   for (const auto& p : q) pivot += p;
   pivot /= static_cast<double>(q.size());
 
-  // Likelihood field over the reference's bounding box grown by the search and the kernel:
-  // each cell the largest exp(-d^2 / 2 sigma^2) over the reference points (the max, not the sum,
-  // so that a densely sampled wall does not outweigh a sparse one).
-  const double margin = o.search_m + 3 * o.sigma_m + o.cell_m;
+  // Likelihood field over where the moved query can land (its bounding box grown by the search,
+  // the yaw search's swing at its farthest point, and the kernel), cut to the reference's box so
+  // grown: memory follows the radar's range, not how far apart the reference keyframes' points
+  // lie. Each cell holds the largest exp(-d^2 / 2 sigma^2) over the reference points (the max,
+  // not the sum, so that a densely sampled wall does not outweigh a sparse one).
+  double reach_q = 0;
+  Eigen::Vector2d q_lo = q[0], q_hi = q[0];
+  for (const auto& p : q) {
+    q_lo = q_lo.cwiseMin(p);
+    q_hi = q_hi.cwiseMax(p);
+    reach_q = std::max(reach_q, (p - pivot).norm());
+  }
+  const double kernel = 3 * o.sigma_m + o.cell_m;
+  const double swing = o.search_m + reach_q * std::sin(std::min(90.0, o.search_deg) * kDeg) + kernel;
   Eigen::Vector2d lo = reference[0], hi = reference[0];
   for (const auto& p : reference) {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
-  lo -= Eigen::Vector2d::Constant(margin);
-  hi += Eigen::Vector2d::Constant(margin);
+  lo = (lo - Eigen::Vector2d::Constant(kernel)).cwiseMax(q_lo - Eigen::Vector2d::Constant(swing));
+  hi = (hi + Eigen::Vector2d::Constant(kernel)).cwiseMin(q_hi + Eigen::Vector2d::Constant(swing));
+  // Disjoint boxes: no query point can reach a reference point.
+  if (!(lo.x() <= hi.x() && lo.y() <= hi.y())) return m;
   const int nx = static_cast<int>(std::ceil((hi.x() - lo.x()) / o.cell_m)) + 1;
   const int ny = static_cast<int>(std::ceil((hi.y() - lo.y()) / o.cell_m)) + 1;
   std::vector<float> field(static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny), 0.0f);

@@ -98,6 +98,10 @@ TEST_CASE("match_planar: empty clouds give no match, bad options throw") {
   const std::vector<Eigen::Vector2d> some = {{1, 2}, {3, 4}};
   CHECK_FALSE(match_planar({}, some, PlanarMatchOptions{}).valid);
   CHECK_FALSE(match_planar(some, {}, PlanarMatchOptions{}).valid);
+  // A reference 100 m away is out of reach (and makes no 100 m field).
+  const std::vector<Eigen::Vector2d> far = {{101, 2}, {103, 4}};
+  CHECK_FALSE(match_planar(far, some, PlanarMatchOptions{}).valid);
+  CHECK(match_planar(some, some, PlanarMatchOptions{}).valid);
   PlanarMatchOptions bad;
   bad.cell_m = 0;
   CHECK_THROWS_AS(match_planar(some, some, bad), std::invalid_argument);

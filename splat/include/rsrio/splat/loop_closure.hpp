@@ -50,7 +50,7 @@ struct PlanarCorrection {
 };
 
 struct PlanarMatch {
-  bool valid = false;                 // both clouds non-empty
+  bool valid = false;                 // both clouds non-empty and within the search's reach
   PlanarCorrection correction;        // the best candidate
   double score = 0;                   // mean field value of the query points at the best, in [0, 1]
   double score_at_zero = 0;           // ... with no correction
