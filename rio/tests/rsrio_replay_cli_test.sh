@@ -53,6 +53,12 @@ printf 'backend:\n  keyframe_distance_m: 1.5\n  keyframe_angle_deg: 90.0\n  keyf
 check "backend ba" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/ba" --config "$tmp/tiny_ba.yaml" --backend ba
 [ "$(grep -c . "$tmp/ba/estimate.tum")" = 63 ] && ok "ba: one pose per frame" || bad "ba: estimate.tum has $(grep -c . "$tmp/ba/estimate.tum") lines"
 cmp -s "$tmp/ba/frontend.tum" "$tmp/ba/estimate.tum" && bad "ba: the backend changed no pose" || ok "ba: the backend corrects poses"
+[ "$(grep -c . "$tmp/ba/estimate_final.tum")" = 63 ] && ok "ba: end-of-run trajectory, one pose per frame" \
+  || bad "ba: estimate_final.tum has $(grep -c . "$tmp/ba/estimate_final.tum" 2>/dev/null) lines"
+# The newest keyframe's frames and those after it are published as the map has them at the end.
+[ "$(tail -n 1 "$tmp/ba/estimate_final.tum")" = "$(tail -n 1 "$tmp/ba/estimate.tum")" ] \
+  && ok "ba: the last frame's end-of-run pose is the published one" || bad "ba: the last frames differ"
+[ -s "$tmp/ba/map.png" ] && ok "ba: map.png" || bad "ba: no map.png"
 out=$("$eval" --gt "$tmp/ba/ground_truth.tum" --est "$tmp/ba/estimate.tum" 2>&1)
 ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
 awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.1) }' && ok "ba: APE $ape m < 0.1 m" || { bad "ba: APE '$ape' m"; echo "$out"; }

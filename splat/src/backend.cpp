@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -393,6 +394,15 @@ std::vector<std::pair<double, gtsam::Pose3>> Backend::keyframe_poses() const {
   const Eigen::Isometry3d radar_T_body = options_.body_T_radar.inverse();
   for (const Keyframe& k : keyframes_) out.emplace_back(k.t, to_pose3(k.world_T_radar * radar_T_body));
   return out;
+}
+
+gtsam::Pose3 Backend::revised(double t, const gtsam::Pose3& odom_T_body) const {
+  if (keyframes_.empty()) return odom_T_body;
+  auto it = std::upper_bound(keyframes_.begin(), keyframes_.end(), t,
+                             [](double time, const Keyframe& k) { return time < k.t; });
+  const Keyframe& k = it == keyframes_.begin() ? *it : *std::prev(it);
+  const Eigen::Isometry3d map_T_body = k.world_T_radar * options_.body_T_radar.inverse();
+  return to_pose3(map_T_body * k.odom_T_body.inverse() * to_isometry(odom_T_body));
 }
 
 bool Backend::accept(const BackendFrame& f) const {

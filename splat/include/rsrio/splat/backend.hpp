@@ -377,6 +377,12 @@ class Backend {
   const BackendStats& stats() const;
   /// (t, map_T_body) of every keyframe, refined.
   std::vector<std::pair<double, gtsam::Pose3>> keyframe_poses() const;
+  /// The pose of the frame at time t (frontend pose odom_T_body) as the map has it NOW, not as it
+  /// was published: the refined pose of the last keyframe at or before t (the first keyframe for
+  /// earlier frames) composed with the frontend's motion since that keyframe. Later BA and loop
+  /// closures move it; for frames after the newest keyframe it is corrected(). Without keyframes:
+  /// odom_T_body. The end-of-run trajectory (rsrio-replay's estimate_final.tum), not causal.
+  gtsam::Pose3 revised(double t, const gtsam::Pose3& odom_T_body) const;
 
   // ---- inspection (tests, pictures, benchmarks)
   const BackendOptions& options() const { return options_; }
