@@ -14,8 +14,8 @@
 // and the pictures (SPEC Sec. 11):
 // DIR/keyframe_NNNN_ra.png, _rd.png  measured | rendered RA and RD of a few keyframes (--pictures N)
 // DIR/map.png        the Gaussian map from above with the frontend's and the backend's trajectories
-//                    (as published and at the end of the run)
-//                    (and the ground truth, aligned to the backend's by SE(3))
+//                    (as published and at the end of the run) and the ground truth, aligned to
+//                    the end-of-run one by SE(3)
 //
 // Frames are processed once the IMU has reached their measurement time (or at the end of the
 // recording), so a recording whose IMU messages lag the radar's is replayed as the daemon would see
@@ -162,7 +162,7 @@ double peak_memory_mb() {
 }
 
 // The backend's pictures: measured | rendered RA and RD of `count` keyframes spread over the run,
-// and the Gaussian map from above with the trajectories (ground truth aligned to the estimate).
+// and the Gaussian map from above with the trajectories (ground truth aligned to the end of run's).
 // `final_estimate`: the frames as the map has them at the end (the map drawn is that map).
 void write_backend_pictures(rsrio::splat::Backend& backend, std::uint64_t count, const std::string& out_dir,
                             const rsrio::eval::Trajectory& frontend, const rsrio::eval::Trajectory& estimate,
@@ -192,10 +192,12 @@ void write_backend_pictures(rsrio::splat::Backend& backend, std::uint64_t count,
   std::vector<rsrio::eval::PlotLine> lines{{"frontend", &frontend, cv::Scalar(40, 120, 240)},
                                            {"backend (BA), as published", &estimate, cv::Scalar(200, 90, 20)},
                                            {"backend, end of run", &final_estimate, cv::Scalar(160, 40, 160)}};
+  // The ground truth in the frame of the end-of-run trajectory: the one that goes with the map.
+  const rsrio::eval::Trajectory& reference = final_estimate.size() >= 3 ? final_estimate : estimate;
   rsrio::eval::Trajectory gt_aligned;
-  if (!ground_truth.empty() && estimate.size() >= 3) {
+  if (!ground_truth.empty() && reference.size() >= 3) {
     rsrio::eval::Trajectory e, g;
-    rsrio::eval::associate(estimate, ground_truth, 0.02, e, g);
+    rsrio::eval::associate(reference, ground_truth, 0.02, e, g);
     if (e.size() >= 3) {
       gt_aligned = rsrio::eval::transformed(ground_truth, rsrio::eval::umeyama(e, g, rsrio::eval::Alignment::kSE3));
       lines.push_back({"ground truth", &gt_aligned, cv::Scalar(60, 160, 60)});

@@ -77,7 +77,7 @@ struct LoopConstraint {
 // alignment are good to (a few centimetres, a few tenths of a degree): met exactly (0.005 m /
 // 0.01 deg before), two revisits of one place that disagree by half a degree bend the chain
 // between the keyframes they were measured against and carry the bend round the loop
-// (sequence 2's end-of-run heading: 0.85 deg RMS; with these 0.29 deg).
+// (sequence 2's end-of-run rotation error: 0.85 deg; with these 0.25-0.29 deg in two runs).
 struct PoseGraphOptions {
   double odometry_sigma_m = 0.02;
   double odometry_sigma_deg = 0.15;
