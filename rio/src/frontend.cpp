@@ -125,12 +125,16 @@ void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, co
   const gtsam::Vector3 bias = values_.at<gtsam::imuBias::ConstantBias>(B(k)).gyroscope();
   cur.candidate = cur.dt > 1e-3 && ego.ok() && ego.velocity.norm() < options_.still_speed_mps &&
                   (cur.mean - bias).norm() < options_.still_gyro_rate;
+  const std::size_t n = 2 * static_cast<std::size_t>(options_.still_neighbours) + 1;
   still_.push_back(cur);
-  if (still_.size() > 3) still_.pop_front();
-  // An interval counts only between two still neighbours: the first and last tenths of a second of
-  // a turn on the spot turn slower than the gate, and must not be taken for standing.
-  if (still_.size() < 3 || !still_[0].candidate || !still_[1].candidate || !still_[2].candidate) return;
-  const StillInterval& mid = still_[1];
+  while (still_.size() > n) still_.pop_front();
+  // An interval counts only between still neighbours: the first and last tenths of a second of a
+  // turn on the spot turn slower than the gate, and a rig that has just stopped still sways (a few
+  // mrad/s, far above still_rate_sigma, under the gate): neither must be taken for standing.
+  if (still_.size() < n) return;
+  for (const StillInterval& s : still_)
+    if (!s.candidate) return;
+  const StillInterval& mid = still_[n / 2];
   if (!values_.exists(B(mid.k))) return;
   // gyro = bias + rate + noise with rate ~ 0: the mean over dt measures the bias.
   const double sg = std::sqrt(options_.gyro_noise_density * options_.gyro_noise_density / mid.dt +
@@ -166,8 +170,23 @@ void RioFrontend::marginalise_oldest() {
 FrontendState RioFrontend::state(std::uint64_t k, double t_radar, bool radar_used) {
   FrontendState s;
   s.t = t_radar;
-  s.world_T_body = values_.at<gtsam::Pose3>(X(k));
-  s.velocity_world = values_.at<gtsam::Vector3>(V(k));
+  const gtsam::Pose3 estimate = values_.at<gtsam::Pose3>(X(k));
+  if (options_.continuous_odometry && zero_rate_updates_ != offset_zero_rate_updates_ && published_k_ &&
+      values_.exists(X(*published_k_))) {
+    // A zero-rate update came in: the offset (a rotation about the vertical and a translation)
+    // that puts the window's new estimate of the previously published state where it was
+    // published. Between updates the offset stands, and the window's smoothing is published as
+    // before.
+    offset_zero_rate_updates_ = zero_rate_updates_;
+    const gtsam::Pose3 previous_now = values_.at<gtsam::Pose3>(X(*published_k_));
+    const gtsam::Matrix3 d = published_.rotation().matrix() * previous_now.rotation().matrix().transpose();
+    const gtsam::Rot3 yaw = gtsam::Rot3::Rz(std::atan2(d(1, 0) - d(0, 1), d(0, 0) + d(1, 1)));
+    offset_ = gtsam::Pose3(yaw, published_.translation() - yaw.rotate(previous_now.translation()));
+  }
+  s.world_T_body = offset_ * estimate;
+  s.velocity_world = offset_.rotation().rotate(values_.at<gtsam::Vector3>(V(k)));
+  published_ = s.world_T_body;
+  published_k_ = k;
   s.bias = values_.at<gtsam::imuBias::ConstantBias>(B(k));
   s.radar_used = radar_used;
   try {

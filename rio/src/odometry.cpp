@@ -80,6 +80,8 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   f.read("still_speed_mps", fo.still_speed_mps, {0.0, 10.0});
   f.read("still_gyro_rate", fo.still_gyro_rate, {0.0, 10.0});
   f.read("still_rate_sigma", fo.still_rate_sigma, {1e-9, 10.0});
+  f.read("still_neighbours", fo.still_neighbours, {1, 100});
+  f.read("continuous_odometry", fo.continuous_odometry);
   f.read("window_states", fo.window_states, {2, 1000});
   f.read("lm_max_iterations", fo.lm_max_iterations, {1, 1000});
   f.read("prior_rotation_sigma", fo.prior_rotation_sigma, {1e-9, 10.0});
@@ -134,6 +136,8 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  still_speed_mps: " << f.still_speed_mps << "\n"
       << "  still_gyro_rate: " << f.still_gyro_rate << "\n"
       << "  still_rate_sigma: " << f.still_rate_sigma << "\n"
+      << "  still_neighbours: " << f.still_neighbours << "\n"
+      << "  continuous_odometry: " << b(f.continuous_odometry) << "\n"
       << "  window_states: " << f.window_states << "\n"
       << "  lm_max_iterations: " << f.lm_max_iterations << "\n"
       << "  prior_rotation_sigma: " << f.prior_rotation_sigma << "\n"

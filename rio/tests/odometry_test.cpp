@@ -148,6 +148,8 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   // The shipped file states the code's defaults, plus the simulated rig's extrinsic.
   CHECK(o.ego_velocity.inlier_threshold_mps == d.ego_velocity.inlier_threshold_mps);
   CHECK(o.frontend.window_states == d.frontend.window_states);
+  CHECK(o.frontend.still_neighbours == d.frontend.still_neighbours);
+  CHECK(o.frontend.continuous_odometry == d.frontend.continuous_odometry);
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);

@@ -41,6 +41,16 @@ struct FrontendOptions {
   double still_speed_mps = 0.05;
   double still_gyro_rate = 0.01;             // rad/s, |mean gyro - believed bias| (3 sigma of a MEMS bias)
   double still_rate_sigma = 5e-4;            // rad/s, residual true rotation while standing
+  int still_neighbours = 3;                  // still intervals needed on each side of one that counts
+  // Position and heading are unobservable (only dead reckoning ties them to the start), and the
+  // window re-estimates them with every new piece of evidence: a zero-rate update after a long drive
+  // changes the believed gyro bias, and with it the whole heading history, by a degree and the
+  // position by tens of centimetres in one frame. true: publish a continuous odometry (REP 105)
+  // by carrying the re-estimate of the four unobservable degrees of freedom at each zero-rate
+  // update forward as an offset (that frame moves by the motion the window estimates since the
+  // previous one); roll and pitch stay absolute (gravity observes them), and between updates the
+  // window's estimate is published as it is. false: the window's estimate always.
+  bool continuous_odometry = true;
   // Window and priors.
   int window_states = 20;
   int lm_max_iterations = 15;
@@ -107,7 +117,13 @@ class RioFrontend {
     double dt = 0;
     bool candidate = false;
   };
-  std::deque<StillInterval> still_;  // the last three intervals
+  std::deque<StillInterval> still_;  // the last 2 still_neighbours + 1 intervals
+  // continuous_odometry: published = offset_ * window estimate, the offset renewed at each zero-rate
+  // update; the last published state.
+  gtsam::Pose3 offset_;
+  std::uint64_t offset_zero_rate_updates_ = 0;
+  gtsam::Pose3 published_;
+  std::optional<std::uint64_t> published_k_;
 };
 
 }  // namespace rsrio::rio
