@@ -10,7 +10,8 @@
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
 // With --backend ba also
 // DIR/estimate_final.tum  every frame's pose as the backend's map has it at the end of the run
-//                    (Backend::revised: later BA and loop closures correct earlier poses; not causal)
+//                    (Backend::revised: later BA and loop closures correct earlier poses, and the
+//                    frontend's last accelerometer bias their roll and pitch; not causal)
 // and the pictures (SPEC Sec. 11):
 // DIR/keyframe_NNNN_ra.png, _rd.png  measured | rendered RA and RD of a few keyframes (--pictures N)
 // DIR/map.png        the Gaussian map from above with the frontend's and the backend's trajectories
@@ -133,17 +134,25 @@ class BaBackend final : public Backend {
     const auto t0 = std::chrono::steady_clock::now();
     if (backend_->add_frame(f))
       keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-    frames_.emplace_back(frame.t, frame.state->world_T_body);
+    frames_.push_back({frame.t, frame.state->world_T_body, frame.state->bias.accelerometer()});
     return backend_->corrected(frame.state->world_T_body) * odometry_->options().frontend.body_T_radar;
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
-  /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order.
+  /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, its
+  /// roll and pitch retilted with the frontend's last accelerometer bias (rio::retilted: the 3-DoF
+  /// backend keeps the frontend's tilt, which a bias learnt in later turns corrects; 6-DoF
+  /// keyframes have their own).
   rsrio::eval::Trajectory final_trajectory() const {
     rsrio::eval::Trajectory out;
-    if (!backend_) return out;
+    if (!backend_ || frames_.empty()) return out;
     out.reserve(frames_.size());
-    for (const auto& [t, odom_T_body] : frames_)
-      out.push_back(stamped(t, backend_->revised(t, odom_T_body) * odometry_->options().frontend.body_T_radar));
+    const auto& frontend = odometry_->options().frontend;
+    const gtsam::Vector3 last_bias = frames_.back().accel_bias;
+    for (const auto& f : frames_) {
+      const gtsam::Pose3 odom_T_body =
+          options_.pose_dof == 3 ? rsrio::rio::retilted(f.odom_T_body, f.accel_bias, last_bias, frontend.gravity) : f.odom_T_body;
+      out.push_back(stamped(f.t, backend_->revised(f.t, odom_T_body) * frontend.body_T_radar));
+    }
     return out;
   }
   std::vector<double> keyframe_ms;  // the backend's time for each keyframe
@@ -152,7 +161,12 @@ class BaBackend final : public Backend {
   const std::optional<rsrio::rio::Odometry>& odometry_;
   rsrio::splat::BackendOptions options_;
   std::optional<rsrio::splat::Backend> backend_;
-  std::vector<std::pair<double, gtsam::Pose3>> frames_;  // (t, odom_T_body) of every frame given
+  struct Frame {
+    double t;
+    gtsam::Pose3 odom_T_body;
+    gtsam::Vector3 accel_bias;  // the frontend's then
+  };
+  std::vector<Frame> frames_;  // every frame given
 };
 
 // The process's peak resident memory (ru_maxrss), MB: the replay's memory figure.

@@ -227,4 +227,15 @@ std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVel
   return state(k, t_radar, options_.use_radar && ego.ok());
 }
 
+gtsam::Pose3 retilted(const gtsam::Pose3& world_T_body, const gtsam::Vector3& accel_bias_then,
+                      const gtsam::Vector3& accel_bias_now, double gravity) {
+  // At rest f = R^T g_up + b: the state explained f with R_then and b_then, so the true up in the
+  // body is R_then^T e_z + (b_then - b_now) / g; the rotation phi (body frame, perpendicular to up)
+  // with R = R_then Exp(phi) moves up by -phi x up, hence phi = w x up for w the difference across up.
+  const gtsam::Vector3 up = world_T_body.rotation().unrotate(gtsam::Vector3::UnitZ());
+  const gtsam::Vector3 d = (accel_bias_then - accel_bias_now) / gravity;
+  const gtsam::Vector3 w = d - d.dot(up) * up;
+  return gtsam::Pose3(world_T_body.rotation() * gtsam::Rot3::Expmap(w.cross(up)), world_T_body.translation());
+}
+
 }  // namespace rsrio::rio

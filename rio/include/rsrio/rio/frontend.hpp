@@ -77,6 +77,17 @@ struct FrontendState {
   bool radar_used = false;                       // an ego-velocity factor was added for this frame
 };
 
+/// The attitude a later accelerometer-bias estimate gives a past state. The radar pins the
+/// horizontal velocity, so the window measures the sum of the horizontal accelerometer bias and the
+/// gravity that a tilt leaks into the accelerometer: until the rig turns they are one unknown, and
+/// roll and pitch are off by (bias believed - true bias) / g (0.3-0.4 deg along sequence 3's first
+/// corridor). Given the bias believed at the time and a later one (after turns have told the two
+/// apart), returns world_T_body with its roll and pitch corrected by the difference; position
+/// unchanged, heading to first order. A smoother's correction for an estimate that is not causal
+/// (the end-of-run trajectory), not for the published odometry.
+gtsam::Pose3 retilted(const gtsam::Pose3& world_T_body, const gtsam::Vector3& accel_bias_then,
+                      const gtsam::Vector3& accel_bias_now, double gravity);
+
 class RioFrontend {
  public:
   explicit RioFrontend(const FrontendOptions& options = {});
