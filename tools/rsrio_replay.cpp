@@ -1,7 +1,7 @@
 // rsrio-replay: runs the odometry (DSP -> ego-velocity -> frontend [-> backend]) over a recording
 // as fast as the machine allows and writes what it estimated.
 //
-//   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba]
+//   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba [--pipelined]]
 //
 // DIR/frontend.tum   the frontend's radar-frame pose per radar frame (TUM, radar clock, world = the
 //                    frontend's: origin at the first state, yaw 0 there)
@@ -36,6 +36,10 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include <sys/resource.h>
@@ -46,6 +50,7 @@
 #include "rsrio/driver/adc_layout.hpp"
 #include "rsrio/eval/trajectory.hpp"
 #include "rsrio/recording/recording.hpp"
+#include "rsrio/runtime/keyframe_handoff.hpp"
 #include "rsrio/rio/odometry.hpp"
 #include "cli_numbers.hpp"
 #include "rsrio/eval/plot.hpp"
@@ -120,28 +125,59 @@ class NoBackend final : public Backend {
 
 // RadarSplat++ bundle adjustment (splat/backend.hpp): made at the first frame, when the radar's
 // DSP grids are known; takes every frame with a frontend state and returns the corrected radar pose.
+// Sequential (default): the backend optimises each keyframe before the next frame is processed,
+// on the one thread. Pipelined (--pipelined): as the daemon, the backend runs on its own thread
+// and takes the keyframe candidates through the daemon's KeyframeHandoff (2 slots); a frame is
+// published with the newest correction the backend has made by then, so corrections arrive a
+// keyframe or two late, as they do in rsriod. Unlike the daemon it never drops a candidate: when
+// both slots are taken the frontend waits for the backend (a replay has no clock to keep up with),
+// so both modes optimise the same keyframes and differ only in when their corrections are used.
 class BaBackend final : public Backend {
  public:
-  BaBackend(const std::optional<rsrio::rio::Odometry>& odometry, rsrio::splat::BackendOptions options)
-      : odometry_(odometry), options_(std::move(options)) {}
+  BaBackend(const std::optional<rsrio::rio::Odometry>& odometry, rsrio::splat::BackendOptions options, bool pipelined)
+      : odometry_(odometry), options_(std::move(options)), pipelined_(pipelined) {}
+  ~BaBackend() override {
+    stop_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
   gtsam::Pose3 process(const rsrio::rio::FrameInfo& frame, const rsrio::AdcCube&) override {
     const auto& dsp = odometry_->dsp();
-    if (!backend_) backend_.emplace(odometry_->radar(), dsp.grids(), options_);
-    rsrio::splat::BackendFrame f;
-    f.t = frame.t;
-    f.odom_T_body = frame.state->world_T_body;
-    f.dsp = &dsp.result();  // this frame's: add_radar_frame just processed it
-    const auto t0 = std::chrono::steady_clock::now();
-    if (backend_->add_frame(f))
-      keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    if (!backend_) start(dsp);
     frames_.push_back({frame.t, frame.state->world_T_body, frame.state->bias.accelerometer()});
-    return backend_->corrected(frame.state->world_T_body) * odometry_->options().frontend.body_T_radar;
+    const gtsam::Pose3& body_T_radar = odometry_->options().frontend.body_T_radar;
+    if (!pipelined_) {
+      rsrio::splat::BackendFrame f;
+      f.t = frame.t;
+      f.odom_T_body = frame.state->world_T_body;
+      f.dsp = &dsp.result();  // this frame's: add_radar_frame just processed it
+      const auto t0 = std::chrono::steady_clock::now();
+      if (backend_->add_frame(f))
+        keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+      return backend_->corrected(frame.state->world_T_body) * body_T_radar;
+    }
+    while (handoff_->free_slots() == 0 && !failed_.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    rethrow_failure();
+    handoff_->offer(frame.t, Eigen::Isometry3d(frame.state->world_T_body.matrix()), dsp.result());
+    gtsam::Pose3 map_T_odom;
+    {
+      std::lock_guard<std::mutex> lock(correction_mutex_);
+      map_T_odom = map_T_odom_;
+    }
+    return map_T_odom * frame.state->world_T_body * body_T_radar;
+  }
+  /// Pipelined: waits until the backend has optimised every candidate handed over, then stops its
+  /// thread (rethrowing what it failed with). Sequential: nothing to wait for.
+  void finish() {
+    if (!thread_.joinable()) return;
+    input_done_.store(true);
+    thread_.join();
+    rethrow_failure();
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
   /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, its
   /// roll and pitch retilted with the frontend's last accelerometer bias (rio::retilted: the 3-DoF
   /// backend keeps the frontend's tilt, which a bias learnt in later turns corrects; 6-DoF
-  /// keyframes have their own).
+  /// keyframes have their own). Pipelined: after finish().
   rsrio::eval::Trajectory final_trajectory() const {
     rsrio::eval::Trajectory out;
     if (!backend_ || frames_.empty()) return out;
@@ -155,11 +191,54 @@ class BaBackend final : public Backend {
     }
     return out;
   }
-  std::vector<double> keyframe_ms;  // the backend's time for each keyframe
+  std::vector<double> keyframe_ms;  // the backend's time for each keyframe (pipelined: read after finish())
 
  private:
+  void start(const rsrio::DspProcessor& dsp) {
+    backend_.emplace(odometry_->radar(), dsp.grids(), options_);
+    if (!pipelined_) return;
+    const rsrio::DspGrids& grids = dsp.grids();
+    const auto& dsp_options = odometry_->options().dsp;
+    handoff_.emplace(2, static_cast<std::size_t>(grids.range_bins * grids.azimuth_bins),
+                     static_cast<std::size_t>(grids.range_bins * grids.doppler_bins),
+                     static_cast<std::size_t>(dsp_options.cfar.max_detections) *
+                         static_cast<std::size_t>(dsp_options.max_angle_peaks),
+                     options_);
+    backend_->set_cancel_flag(&stop_);
+    thread_ = std::thread([this] { run(); });
+  }
+  // The backend's thread: each candidate as the daemon's BA thread takes it.
+  void run() {
+    try {
+      while (!stop_.load()) {
+        if (rsrio::KeyframeCandidate* c = handoff_->next()) {
+          if (c->has_previous) backend_->add_predecessor(c->previous_t, gtsam::Pose3(c->previous_odom_T_body.matrix()));
+          const rsrio::DspResult view = c->view();
+          const auto t0 = std::chrono::steady_clock::now();
+          const bool made = backend_->add_frame({c->t, gtsam::Pose3(c->odom_T_body.matrix()), &view});
+          handoff_->release(c);
+          if (made) {
+            keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+            std::lock_guard<std::mutex> lock(correction_mutex_);
+            map_T_odom_ = backend_->map_T_odom();
+          }
+          continue;
+        }
+        if (input_done_.load() && handoff_->depth() == 0) break;
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+    } catch (...) {
+      failure_ = std::current_exception();  // read by the main thread after failed_ (release/acquire)
+      failed_.store(true);
+    }
+  }
+  void rethrow_failure() {
+    if (failed_.load() && failure_) std::rethrow_exception(failure_);
+  }
+
   const std::optional<rsrio::rio::Odometry>& odometry_;
   rsrio::splat::BackendOptions options_;
+  const bool pipelined_;
   std::optional<rsrio::splat::Backend> backend_;
   struct Frame {
     double t;
@@ -167,6 +246,13 @@ class BaBackend final : public Backend {
     gtsam::Vector3 accel_bias;  // the frontend's then
   };
   std::vector<Frame> frames_;  // every frame given
+  // Pipelined only.
+  std::optional<rsrio::KeyframeHandoff> handoff_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false}, input_done_{false}, failed_{false};
+  std::exception_ptr failure_;
+  std::mutex correction_mutex_;
+  gtsam::Pose3 map_T_odom_;  // the newest correction (identity until the first keyframe: map = odom)
 };
 
 // The process's peak resident memory (ru_maxrss), MB: the replay's memory figure.
@@ -232,7 +318,7 @@ struct PendingFrame {
 
 int main(int argc, char** argv) {
   std::string input, out_dir, backend_name = "none", pictures_text = "3";
-  bool quiet = false;
+  bool quiet = false, pipelined = false;
   rsrio::Cli cli(kProgram,
                  "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
                  "frontend.tum, estimate.tum (with --backend ba also estimate_final.tum), ground_truth.tum\n"
@@ -244,6 +330,10 @@ int main(int argc, char** argv) {
       .option("--backend", "none|ba", "backend after the frontend (default none)", &backend_name)
       .option("--pictures", "N", "with --backend ba: measured vs rendered images of N keyframes (default 3)",
               &pictures_text)
+      .flag("--pipelined",
+            "with --backend ba: the backend on its own thread, as in rsriod (the real-time factor on 2 cores; "
+            "corrections are used a keyframe or two later)",
+            &pipelined)
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   rsrio::rio::OdometryOptions options;
@@ -267,6 +357,10 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
     return rsrio::kExitUsage;
   }
+  if (pipelined && backend_name != "ba") {
+    std::cerr << kProgram << ": error: --pipelined runs the backend on its own thread: it needs --backend ba\n";
+    return rsrio::kExitUsage;
+  }
   // The backend renders on the DSP's grids with the DSP's point spread, from the frontend's extrinsic.
   rsrio::splat::take_frontend_options(backend_options, options);
   {
@@ -284,7 +378,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<Backend> backend;
     BaBackend* ba = nullptr;
     if (backend_name == "ba") {
-      auto b = std::make_unique<BaBackend>(odometry, backend_options);
+      auto b = std::make_unique<BaBackend>(odometry, backend_options, pipelined);
       ba = b.get();
       backend = std::move(b);
     } else {
@@ -419,6 +513,7 @@ int main(int argc, char** argv) {
     }
     for (auto& f : pending) process(f);
     pending.clear();
+    if (ba != nullptr) ba->finish();  // pipelined: the backend's last keyframes
     progress(true);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
@@ -451,6 +546,7 @@ int main(int argc, char** argv) {
     js << std::setprecision(6) << "{\n"
        << "  \"input\": " << json_string(input) << ",\n"
        << "  \"backend\": " << json_string(backend_name) << ",\n"
+       << "  \"pipelined\": " << (pipelined && ba != nullptr ? "true" : "false") << ",\n"
        << "  \"frames\": " << frames << ",\n"
        << "  \"states\": " << states << ",\n"
        << "  \"frames_with_radar_factor\": " << radar_used << ",\n"
@@ -480,6 +576,9 @@ int main(int argc, char** argv) {
          << ", \"nan_guard_hits\": " << st.nan_guard_hits << ", \"rejected_frames\": " << st.rejected_frames
          << ", \"pose_s\": " << st.pose.total_s << ", \"mapping_s\": " << st.mapping.total_s
          << ", \"ba_s\": " << st.ba.total_s << ", \"ba_budget_stops\": " << st.ba.budget_stops
+         << ", \"pose_iterations\": " << st.pose.iterations << ", \"mapping_iterations\": " << st.mapping.iterations
+         << ", \"ba_iterations\": " << st.ba.iterations << ", \"pose_budget_stops\": " << st.pose.budget_stops
+         << ", \"mapping_budget_stops\": " << st.mapping.budget_stops
          << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted
          << ", \"loop_attempts\": " << st.loop_attempts << ", \"loop_closures\": " << st.loop_closures
          << ", \"loop_rejected_score\": " << st.loop_rejected_score

@@ -159,3 +159,60 @@ TEST_CASE("keyframe hand-over between two threads: every candidate arrives whole
   CHECK(queued + static_cast<int>(handoff.dropped()) == kFrames - 1);
   CHECK(queued > 0);
 }
+
+TEST_CASE("keyframe hand-over: free_slots counts what an offer would find, and a producer that waits for one loses "
+          "nothing (rsrio-replay --pipelined)",
+          "[runtime][keyframes][concurrency]") {
+  SECTION("one thread") {
+    rsrio::KeyframeHandoff handoff(2, kRa, kRd, kPoints, selection());
+    const FakeFrame f = frame_filled_with(1);
+    CHECK(handoff.free_slots() == 2);
+    handoff.offer(0.0, x_at(0), f.view());
+    CHECK(handoff.free_slots() == 2);  // the first frame is only a predecessor
+    CHECK(handoff.offer(0.1, x_at(0.5), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    CHECK(handoff.free_slots() == 1);
+    CHECK(handoff.offer(0.2, x_at(1.0), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued);
+    CHECK(handoff.free_slots() == 0);
+    CHECK(handoff.offer(0.3, x_at(1.5), f.view()) == rsrio::KeyframeHandoff::Offer::kDropped);
+    rsrio::KeyframeCandidate* c = handoff.next();
+    REQUIRE(c != nullptr);
+    CHECK(handoff.free_slots() == 0);  // taken by the BA thread until released
+    handoff.release(c);
+    CHECK(handoff.free_slots() == 1);
+  }
+  SECTION("two threads, the producer waiting") {
+    constexpr int kFrames = 2000;
+    rsrio::KeyframeHandoff handoff(2, kRa, kRd, kPoints, selection());
+    std::atomic<bool> producer_done{false};
+    std::vector<int> order;  // consumer side only
+    std::thread consumer([&] {
+      while (true) {
+        if (rsrio::KeyframeCandidate* c = handoff.next()) {
+          order.push_back(static_cast<int>(std::lround(c->ra.front())));
+          handoff.release(c);
+          continue;
+        }
+        if (producer_done.load()) break;
+        std::this_thread::yield();
+      }
+    });
+    int queued = 0;
+    std::thread producer([&] {
+      FakeFrame f = frame_filled_with(0);
+      for (int i = 0; i < kFrames; ++i) {
+        std::fill(f.ra.begin(), f.ra.end(), static_cast<float>(i));
+        while (handoff.free_slots() == 0) std::this_thread::yield();
+        if (handoff.offer(0.1 * i, x_at(0.5 * i), f.view()) == rsrio::KeyframeHandoff::Offer::kQueued) ++queued;
+      }
+      producer_done = true;
+    });
+    producer.join();
+    consumer.join();
+    CHECK(handoff.dropped() == 0);
+    CHECK(queued == kFrames - 1);
+    REQUIRE(order.size() == static_cast<std::size_t>(kFrames - 1));
+    bool in_order = true;
+    for (std::size_t i = 0; i < order.size(); ++i) in_order = in_order && order[i] == static_cast<int>(i) + 1;
+    CHECK(in_order);
+  }
+}

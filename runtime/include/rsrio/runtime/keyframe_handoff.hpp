@@ -49,6 +49,10 @@ class KeyframeHandoff {
   KeyframeCandidate* next();
   void release(KeyframeCandidate* candidate);
 
+  /// RIO thread: slots free for the next candidate. Only the BA thread adds to it (release), so
+  /// a non-zero count holds until the next offer(); a caller that must not drop (rsrio-replay
+  /// --pipelined) waits for one before offering.
+  std::size_t free_slots() const { return free_.size(); }
   std::size_t depth() const { return queue_.size(); }
   std::size_t capacity() const { return queue_.capacity(); }
   std::uint64_t pushed() const { return queue_.pushed(); }
