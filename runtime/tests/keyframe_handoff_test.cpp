@@ -138,7 +138,7 @@ TEST_CASE("keyframe hand-over between two threads: every candidate arrives whole
         handoff.release(c);
         continue;
       }
-      if (producer_done.load()) break;
+      if (producer_done.load() && handoff.depth() == 0) break;  // pushed before done: seen
       std::this_thread::yield();
     }
   });
@@ -192,7 +192,7 @@ TEST_CASE("keyframe hand-over: free_slots counts what an offer would find, and a
           handoff.release(c);
           continue;
         }
-        if (producer_done.load()) break;
+        if (producer_done.load() && handoff.depth() == 0) break;  // pushed before done: seen
         std::this_thread::yield();
       }
     });
