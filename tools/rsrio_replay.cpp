@@ -212,12 +212,8 @@ class BaBackend final : public Backend {
     try {
       while (!stop_.load()) {
         if (rsrio::KeyframeCandidate* c = handoff_->next()) {
-          if (c->has_previous) backend_->add_predecessor(c->previous_t, gtsam::Pose3(c->previous_odom_T_body.matrix()));
-          const rsrio::DspResult view = c->view();
           const auto t0 = std::chrono::steady_clock::now();
-          const bool made = backend_->add_frame({c->t, gtsam::Pose3(c->odom_T_body.matrix()), &view});
-          handoff_->release(c);
-          if (made) {
+          if (handoff_->hand_to_backend(c, *backend_)) {
             keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
             std::lock_guard<std::mutex> lock(correction_mutex_);
             map_T_odom_ = backend_->map_T_odom();

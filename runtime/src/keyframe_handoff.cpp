@@ -64,4 +64,19 @@ void KeyframeHandoff::release(KeyframeCandidate* candidate) {
   free_.try_push(index);
 }
 
+bool KeyframeHandoff::hand_to_backend(KeyframeCandidate* candidate, splat::Backend& backend) {
+  bool made = false;
+  try {
+    if (candidate->has_previous)
+      backend.add_predecessor(candidate->previous_t, gtsam::Pose3(candidate->previous_odom_T_body.matrix()));
+    const DspResult view = candidate->view();
+    made = backend.add_frame({candidate->t, gtsam::Pose3(candidate->odom_T_body.matrix()), &view});
+  } catch (...) {
+    release(candidate);  // the slot is the RIO thread's again whatever the backend did with it
+    throw;
+  }
+  release(candidate);
+  return made;
+}
+
 }  // namespace rsrio

@@ -415,12 +415,8 @@ struct Pipeline::Impl : fdds::DataReaderListener {
     while (true) {
       if (KeyframeCandidate* c = keyframes->next()) {
         try {
-          if (c->has_previous) backend->add_predecessor(c->previous_t, gtsam::Pose3(c->previous_odom_T_body.matrix()));
-          const DspResult view = c->view();
           const auto start = Clock::now();
-          const bool made = backend->add_frame({c->t, gtsam::Pose3(c->odom_T_body.matrix()), &view});
-          keyframes->release(c);
-          if (made) {
+          if (keyframes->hand_to_backend(c, *backend)) {
             const splat::BackendStats& st = backend->stats();
             ba_last_ms.store(1e3 * std::chrono::duration<double>(Clock::now() - start).count());
             if (ba_ms.size() < ba_ms.capacity()) ba_ms.push_back(ba_last_ms.load());
@@ -431,7 +427,6 @@ struct Pipeline::Impl : fdds::DataReaderListener {
             corrections.try_push(corr);  // full: the publisher is behind; a later one follows
           }
         } catch (const std::exception& e) {
-          keyframes->release(c);
           ba_errors.fetch_add(1);
           spdlog::error("{}: {}", describe(Event::kBackendError), e.what());  // not a real-time thread
         }

@@ -1,7 +1,7 @@
 // KeyframeHandoff: the RIO thread hands the backend exactly the frames the backend's own rule makes
 // keyframes, each with its predecessor and its images intact; a full hand-over drops and counts,
 // and the next frame is a candidate again; two real threads pass candidates without tearing them
-// (this test runs under the thread sanitizer too).
+// (this test runs under the thread sanitizer too); hand_to_backend feeds a real backend.
 #include "rsrio/runtime/keyframe_handoff.hpp"
 
 #include <atomic>
@@ -10,6 +10,9 @@
 #include <vector>
 
 #include <catch2/catch_test_macros.hpp>
+
+#include "rsrio/common/radar_config.hpp"
+#include "rsrio/dsp/processor.hpp"
 
 namespace {
 
@@ -215,4 +218,38 @@ TEST_CASE("keyframe hand-over: free_slots counts what an offer would find, and a
     for (std::size_t i = 0; i < order.size(); ++i) in_order = in_order && order[i] == static_cast<int>(i) + 1;
     CHECK(in_order);
   }
+}
+
+TEST_CASE("keyframe hand-over feeds a real backend: the candidates become its keyframes, each slot comes back",
+          "[runtime][keyframes]") {
+  // The xwr1843's grids; flat images and no points (an empty map): what is checked is the
+  // hand-over, not the optimisation. No time budgets, few iterations: deterministic and quick.
+  rsrio::RadarConfig config = rsrio::radar_preset("xwr1843");
+  config.loops = 32;
+  const rsrio::DspGrids grids = rsrio::DspProcessor(config).grids();
+  rsrio::splat::BackendOptions o = selection();
+  o.pose.time_budget_s = o.mapping.time_budget_s = o.ba.time_budget_s = 0;
+  o.pose.max_iterations = o.mapping.max_iterations = o.ba.max_iterations = 2;
+  o.first_keyframe_mapping_iterations = 2;
+  rsrio::splat::Backend backend(config, grids, o);
+  const auto ra = static_cast<std::size_t>(grids.range_bins * grids.azimuth_bins);
+  const auto rd = static_cast<std::size_t>(grids.range_bins * grids.doppler_bins);
+  rsrio::KeyframeHandoff handoff(2, ra, rd, kPoints, o);
+  const rsrio::DspImages f{std::vector<float>(ra, 1.0f), std::vector<float>(rd, 1.0f), {}};
+  std::vector<double> handed;
+  for (int i = 0; i < 8; ++i) {
+    if (handoff.offer(0.1 * i, x_at(0.15 * i), f.view()) != rsrio::KeyframeHandoff::Offer::kQueued) continue;
+    rsrio::KeyframeCandidate* c = handoff.next();
+    REQUIRE(c != nullptr);
+    handed.push_back(c->t);
+    // The first candidate is a keyframe only because its predecessor went first (the backend
+    // needs the velocity): without add_predecessor it would merely start the backend.
+    CHECK(handoff.hand_to_backend(c, backend));
+    CHECK(handoff.free_slots() == 2);
+  }
+  REQUIRE(handed.size() == 3);  // frames 1, 4, 7
+  CHECK(backend.stats().keyframes == handed.size());
+  const auto poses = backend.keyframe_poses();
+  REQUIRE(poses.size() == handed.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) CHECK(poses[i].first == handed[i]);
 }

@@ -48,6 +48,10 @@ class KeyframeHandoff {
   /// BA thread: the oldest queued candidate, or null. Give it back with release().
   KeyframeCandidate* next();
   void release(KeyframeCandidate* candidate);
+  /// BA thread: the candidate to `backend` (its predecessor's pose, then the frame) and its slot
+  /// back, also when the backend throws (rethrown). True when the backend made it a keyframe.
+  /// The daemon's BA thread and rsrio-replay --pipelined feed the backend only through this.
+  bool hand_to_backend(KeyframeCandidate* candidate, splat::Backend& backend);
 
   /// RIO thread: slots free for the next candidate. Only the BA thread adds to it (release), so
   /// a non-zero count holds until the next offer(); a caller that must not drop (rsrio-replay
