@@ -155,7 +155,11 @@ class BaBackend final : public Backend {
         keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       return backend_->corrected(frame.state->world_T_body) * body_T_radar;
     }
-    while (handoff_->free_slots() == 0 && !failed_.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    if (handoff_->free_slots() == 0) {
+      const auto t0 = std::chrono::steady_clock::now();
+      while (handoff_->free_slots() == 0 && !failed_.load()) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      waited_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
     rethrow_failure();
     handoff_->offer(frame.t, Eigen::Isometry3d(frame.state->world_T_body.matrix()), dsp.result());
     gtsam::Pose3 map_T_odom;
@@ -192,6 +196,7 @@ class BaBackend final : public Backend {
     return out;
   }
   std::vector<double> keyframe_ms;  // the backend's time for each keyframe (pipelined: read after finish())
+  double waited_s = 0;              // pipelined: the frontend's time waiting for a free hand-over slot
 
  private:
   void start(const rsrio::DspProcessor& dsp) {
@@ -543,6 +548,7 @@ int main(int argc, char** argv) {
        << "  \"input\": " << json_string(input) << ",\n"
        << "  \"backend\": " << json_string(backend_name) << ",\n"
        << "  \"pipelined\": " << (pipelined && ba != nullptr ? "true" : "false") << ",\n"
+       << "  \"waited_for_backend_s\": " << (ba != nullptr ? ba->waited_s : 0.0) << ",\n"
        << "  \"frames\": " << frames << ",\n"
        << "  \"states\": " << states << ",\n"
        << "  \"frames_with_radar_factor\": " << radar_used << ",\n"

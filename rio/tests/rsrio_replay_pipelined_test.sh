@@ -35,6 +35,13 @@ for mode in sequential pipelined; do
 done
 grep -q '"pipelined": true' "$tmp/pipelined/stats.json" && ok "stats: pipelined" || bad "stats.json lacks pipelined: true"
 grep -q '"pipelined": false' "$tmp/sequential/stats.json" && ok "stats: sequential" || bad "stats.json lacks pipelined: false"
+# The frontend's waits for a free slot, summed (part of the pipelined per-frame time): none when
+# sequential, between 0 and the wall time when pipelined.
+w_seq=$(stat_of "$tmp/sequential" waited_for_backend_s) w_pipe=$(stat_of "$tmp/pipelined" waited_for_backend_s)
+wall_pipe=$(stat_of "$tmp/pipelined" wall_seconds)
+awk -v s="$w_seq" -v p="$w_pipe" -v w="$wall_pipe" 'BEGIN { exit !(s != "" && s == 0 && p != "" && w != "" && p >= 0 && p <= w) }' \
+  && ok "stats: waited for the backend ${w_pipe} s of ${wall_pipe} s pipelined, ${w_seq} sequential" \
+  || bad "stats: waited_for_backend_s pipelined '$w_pipe' (wall '$wall_pipe'), sequential '$w_seq'"
 kf_seq=$(stat_of "$tmp/sequential" keyframes) kf_pipe=$(stat_of "$tmp/pipelined" keyframes)
 [ -n "$kf_pipe" ] && [ "$kf_pipe" -ge 3 ] && [ "$kf_pipe" = "$kf_seq" ] \
   && ok "the same keyframes as the sequential replay ($kf_pipe): none dropped" \
