@@ -147,6 +147,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("loop_min_correction_deg", o.loop_min_correction_deg, {0.0, 180.0});
   node.read("loop_max_refinement_m", o.loop_max_refinement_m, {0.0, 100.0});
   node.read("loop_max_refinement_deg", o.loop_max_refinement_deg, {0.0, 180.0});
+  node.read("loop_lr_pose_translation", o.loop_lr_pose_translation, {0.0, 10.0});
   {
     OptionsNode m = node.child("loop_match");
     m.read("search_m", o.loop.search_m, {0.0, 100.0});
@@ -243,6 +244,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  loop_min_correction_deg: " << o.loop_min_correction_deg << "\n"
       << "  loop_max_refinement_m: " << o.loop_max_refinement_m << "\n"
       << "  loop_max_refinement_deg: " << o.loop_max_refinement_deg << "\n"
+      << "  loop_lr_pose_translation: " << o.loop_lr_pose_translation << "\n"
       << "  loop_match: {search_m: " << o.loop.search_m << ", search_deg: " << o.loop.search_deg
       << ", cell_m: " << o.loop.cell_m << ", step_deg: " << o.loop.step_deg << ", sigma_m: " << o.loop.sigma_m
       << ", near_best_fraction: " << o.loop.near_best_fraction << ", max_query_points: " << o.loop.max_query_points
@@ -666,7 +668,7 @@ Eigen::Vector3d Backend::velocity_of(std::size_t k, RadarVelocity* jacobians) co
 
 void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
                         bool use_rd, const StageOptions& stage, int max_iterations, StageStats& st,
-                        const std::vector<char>* drawable, bool priors) {
+                        const std::vector<char>* drawable, bool priors, std::optional<double> lr_pose_translation) {
   const auto start = std::chrono::steady_clock::now();
   ++st.runs;
   use_rd = use_rd && options_.rd_loss && options_.rd_weight > 0;
@@ -677,7 +679,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
   std::vector<int> pose_row(keyframes_.size(), -1);
   for (std::size_t r = 0; r < poses.size(); ++r) pose_row[poses[r]] = static_cast<int>(r);
   SplatAdamOptions pose_adam_options;
-  pose_adam_options.lr_pose_translation = options_.lr_pose_translation;
+  pose_adam_options.lr_pose_translation = lr_pose_translation.value_or(options_.lr_pose_translation);
   pose_adam_options.lr_pose_rotation = options_.lr_pose_rotation;
   SplatAdam pose_adam(pose_adam_options, stride);
   std::vector<double> params(stride * poses.size(), 0.0), grads(params.size(), 0.0);
@@ -1018,7 +1020,8 @@ void Backend::align_revisit(std::size_t k) {
   newest.world_T_radar = start;
   const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
   if (options_.pose_coverage_mask) mask_uncovered_targets(k, &earlier);
-  run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, &earlier, false);
+  run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, &earlier, false,
+            options_.loop_lr_pose_translation);
   const Eigen::Isometry3d aligned = newest.world_T_radar;
   newest.world_T_radar = drifted;
   newest.ra_target = ra_target;

@@ -141,10 +141,13 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  pose: {max_iterations: 20, time_budget_s: 0.05}\n"
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
+      "  loop_lr_pose_translation: 0.02\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n");
   CHECK(o.mapping_keyframes == 7);
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
+  CHECK(o.loop_lr_pose_translation == 0.02);
+  CHECK(o.lr_pose_translation == BackendOptions{}.lr_pose_translation);
   CHECK(o.loop.search_m == 1.5);
   CHECK(o.loop.sigma_m == 0.1);
   CHECK(o.loop.cell_m == PlanarMatchOptions{}.cell_m);
@@ -188,6 +191,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
   fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
+  fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
   BackendOptions no_query;
   no_query.loop.max_query_points = 0;
   CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);

@@ -54,6 +54,7 @@
 #include <cstdint>
 #include <iosfwd>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <utility>
@@ -173,7 +174,7 @@ struct BackendOptions {
   // the yaw of sequences 3 and 4 random-walked by 3-6 deg over a few minutes, either way.
   double odometry_yaw_sigma_deg = 2.0;
   // ---- learning rates (Adam)
-  double lr_pose_translation = 0.01;   // m
+  double lr_pose_translation = 0.003;  // m
   double lr_pose_rotation = 0.004;     // rad
   double lr_means = 0.005;             // m
   double lr_rotations = 1e-3;
@@ -206,6 +207,10 @@ struct BackendOptions {
   // at most this much, else the match is refused.
   double loop_max_refinement_m = 0.3;
   double loop_max_refinement_deg = 2.0;
+  // The alignment's translation learning rate (m): the pose stage's iterations must be able to
+  // cover loop_max_refinement_m (40 x 1 cm), where the stages' own lr_pose_translation is set
+  // for steps of millimetres around a pose the frontend already gives to centimetres.
+  double loop_lr_pose_translation = 0.01;
   PlanarMatchOptions loop;
   // ---- scene
   int max_gaussians = 100'000;
@@ -402,10 +407,12 @@ class Backend {
   void add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity);
   /// The stages: `poses` = keyframes whose pose is optimised, `views` = keyframes rendered.
   /// `drawable` (per Gaussian, may be null: all) limits what the views draw; `priors` false
-  /// leaves the odometry priors out (the revisit's alignment against the earlier pass's map).
+  /// leaves the odometry priors out (the revisit's alignment against the earlier pass's map);
+  /// `lr_pose_translation` replaces the options' rate (the alignment's).
   void run_stage(const std::vector<std::size_t>& views, const std::vector<std::size_t>& poses, bool optimise_scene,
                  bool use_rd, const StageOptions& stage, int max_iterations, StageStats& stats,
-                 const std::vector<char>* drawable = nullptr, bool priors = true);
+                 const std::vector<char>* drawable = nullptr, bool priors = true,
+                 std::optional<double> lr_pose_translation = std::nullopt);
   std::vector<std::size_t> ba_window() const;
   /// The odometry prior of every consecutive keyframe pair with an optimised pose: its loss, and
   /// its gradients added to grad_left (rows of pose_row).
