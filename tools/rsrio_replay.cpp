@@ -1,8 +1,12 @@
 // rsrio-replay: runs the odometry (DSP -> ego-velocity -> frontend [-> backend]) over a recording
 // as fast as the machine allows and writes what it estimated.
 //
-//   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba [--pipelined]]
+//   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba [--pipelined]
+//                [--backend-poses frontend|constant-velocity]]
 //
+// --backend-poses constant-velocity is the paper's `no frontend` ablation: the backend's keyframes
+// start from its own constant-velocity prediction instead of the frontend's motion (the frontend
+// still runs, for frontend.tum).
 // DIR/frontend.tum   the frontend's radar-frame pose per radar frame (TUM, radar clock, world = the
 //                    frontend's: origin at the first state, yaw 0 there)
 // DIR/estimate.tum   the pose after the backend as published (causal; = frontend.tum with --backend none)
@@ -134,8 +138,12 @@ class NoBackend final : public Backend {
 // so both modes optimise the same keyframes and differ only in when their corrections are used.
 class BaBackend final : public Backend {
  public:
-  BaBackend(const std::optional<rsrio::rio::Odometry>& odometry, rsrio::splat::BackendOptions options, bool pipelined)
-      : odometry_(odometry), options_(std::move(options)), pipelined_(pipelined) {}
+  // `alone`: the backend tracks without the frontend (the paper's `no frontend` ablation): each
+  // frame's pose is the backend's own constant-velocity prediction (Backend::predicted), given as
+  // odom_T_body = map_T_odom^-1 predicted, so a keyframe starts from the prediction. Sequential only.
+  BaBackend(const std::optional<rsrio::rio::Odometry>& odometry, rsrio::splat::BackendOptions options, bool pipelined,
+            bool alone)
+      : odometry_(odometry), options_(std::move(options)), pipelined_(pipelined), alone_(alone) {}
   ~BaBackend() override {
     stop_.store(true);
     if (thread_.joinable()) thread_.join();
@@ -143,17 +151,20 @@ class BaBackend final : public Backend {
   gtsam::Pose3 process(const rsrio::rio::FrameInfo& frame, const rsrio::AdcCube&) override {
     const auto& dsp = odometry_->dsp();
     if (!backend_) start(dsp);
-    frames_.push_back({frame.t, frame.state->world_T_body, frame.state->bias.accelerometer()});
+    const gtsam::Pose3 odom_T_body =
+        alone_ ? backend_->map_T_odom().inverse() * backend_->predicted(frame.t) : frame.state->world_T_body;
+    // Alone, no frontend bias retilts the poses (final_trajectory): the same (zero) bias throughout.
+    frames_.push_back({frame.t, odom_T_body, alone_ ? gtsam::Vector3::Zero() : frame.state->bias.accelerometer()});
     const gtsam::Pose3& body_T_radar = odometry_->options().frontend.body_T_radar;
     if (!pipelined_) {
       rsrio::splat::BackendFrame f;
       f.t = frame.t;
-      f.odom_T_body = frame.state->world_T_body;
+      f.odom_T_body = odom_T_body;
       f.dsp = &dsp.result();  // this frame's: add_radar_frame just processed it
       const auto t0 = std::chrono::steady_clock::now();
       if (backend_->add_frame(f))
         keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-      return backend_->corrected(frame.state->world_T_body) * body_T_radar;
+      return backend_->corrected(odom_T_body) * body_T_radar;
     }
     if (handoff_->free_slots() == 0) {
       const auto t0 = std::chrono::steady_clock::now();
@@ -239,7 +250,7 @@ class BaBackend final : public Backend {
 
   const std::optional<rsrio::rio::Odometry>& odometry_;
   rsrio::splat::BackendOptions options_;
-  const bool pipelined_;
+  const bool pipelined_, alone_;
   std::optional<rsrio::splat::Backend> backend_;
   struct Frame {
     double t;
@@ -318,7 +329,7 @@ struct PendingFrame {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string input, out_dir, backend_name = "none", pictures_text = "3";
+  std::string input, out_dir, backend_name = "none", pictures_text = "3", backend_poses = "frontend";
   bool quiet = false, pipelined = false;
   rsrio::Cli cli(kProgram,
                  "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
@@ -331,6 +342,11 @@ int main(int argc, char** argv) {
       .option("--backend", "none|ba", "backend after the frontend (default none)", &backend_name)
       .option("--pictures", "N", "with --backend ba: measured vs rendered images of N keyframes (default 3)",
               &pictures_text)
+      .option("--backend-poses", "frontend|constant-velocity",
+              "with --backend ba: where a new keyframe's pose starts: the frontend's motion (default), or the "
+              "backend's own constant-velocity prediction without the frontend (the paper's `no frontend` "
+              "ablation; the frontend still runs for frontend.tum)",
+              &backend_poses)
       .flag("--pipelined",
             "with --backend ba: the backend on its own thread, as in rsriod (the real-time factor on 2 cores; "
             "corrections are used a keyframe or two later)",
@@ -358,6 +374,17 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
     return rsrio::kExitUsage;
   }
+  if (backend_poses != "frontend" && backend_poses != "constant-velocity") {
+    std::cerr << kProgram << ": error: --backend-poses: expected frontend or constant-velocity, got '" << backend_poses
+              << "'\n";
+    return rsrio::kExitUsage;
+  }
+  const bool alone = backend_poses == "constant-velocity";
+  if (alone && (backend_name != "ba" || pipelined)) {
+    std::cerr << kProgram << ": error: --backend-poses constant-velocity needs --backend ba, sequential (the prediction "
+                 "is the backend's own state)\n";
+    return rsrio::kExitUsage;
+  }
   if (pipelined && backend_name != "ba") {
     std::cerr << kProgram << ": error: --pipelined runs the backend on its own thread: it needs --backend ba\n";
     return rsrio::kExitUsage;
@@ -379,7 +406,7 @@ int main(int argc, char** argv) {
     std::unique_ptr<Backend> backend;
     BaBackend* ba = nullptr;
     if (backend_name == "ba") {
-      auto b = std::make_unique<BaBackend>(odometry, backend_options, pipelined);
+      auto b = std::make_unique<BaBackend>(odometry, backend_options, pipelined, alone);
       ba = b.get();
       backend = std::move(b);
     } else {
@@ -548,6 +575,7 @@ int main(int argc, char** argv) {
        << "  \"input\": " << json_string(input) << ",\n"
        << "  \"backend\": " << json_string(backend_name) << ",\n"
        << "  \"pipelined\": " << (pipelined && ba != nullptr ? "true" : "false") << ",\n"
+       << "  \"backend_poses\": " << json_string(ba != nullptr ? backend_poses : "none") << ",\n"
        << "  \"waited_for_backend_s\": " << (ba != nullptr ? ba->waited_s : 0.0) << ",\n"
        << "  \"frames\": " << frames << ",\n"
        << "  \"states\": " << states << ",\n"

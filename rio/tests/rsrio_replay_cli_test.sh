@@ -62,6 +62,18 @@ cmp -s "$tmp/ba/frontend.tum" "$tmp/ba/estimate.tum" && bad "ba: the backend cha
 out=$("$eval" --gt "$tmp/ba/ground_truth.tum" --est "$tmp/ba/estimate.tum" 2>&1)
 ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
 awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.1) }' && ok "ba: APE $ape m < 0.1 m" || { bad "ba: APE '$ape' m"; echo "$out"; }
+# The paper's `no frontend` ablation wired in: the backend's own constant-velocity poses (its
+# tracking is splat_backend_test's); one pose per frame, not the frontend's, and said in stats.json.
+check "backend poses constant-velocity" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/alone" \
+  --config "$tmp/tiny_ba.yaml" --backend ba --backend-poses constant-velocity --pictures 0
+[ "$(grep -c . "$tmp/alone/estimate.tum")" = 63 ] && ok "alone: one pose per frame" || bad "alone: estimate.tum has $(grep -c . "$tmp/alone/estimate.tum") lines"
+cmp -s "$tmp/alone/estimate.tum" "$tmp/ba/estimate.tum" && bad "alone: the same poses as with the frontend" || ok "alone: not the frontend's poses"
+grep -q '"backend_poses": "constant-velocity"' "$tmp/alone/stats.json" && ok "stats: backend_poses" || bad "stats.json lacks backend_poses"
+grep -q '"backend_poses": "frontend"' "$tmp/ba/stats.json" && ok "stats: backend_poses frontend" || bad "stats.json (ba) lacks backend_poses"
+check "backend poses unknown" 2 "--backend-poses" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --backend-poses imu
+check "backend poses without ba" 2 "needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend-poses constant-velocity
+check "backend poses pipelined" 2 "sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --pipelined \
+  --backend-poses constant-velocity
 check "backend unknown" 2 "--backend" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend foo
 check "no input" 2 "--input and --out are required" "$replay" --out "$tmp/x"
 printf 'frontend:\n  window_state: 5\n' > "$tmp/typo.yaml"

@@ -407,6 +407,17 @@ gtsam::Pose3 Backend::revised(double t, const gtsam::Pose3& odom_T_body) const {
   return to_pose3(map_T_body * k.odom_T_body.inverse() * to_isometry(odom_T_body));
 }
 
+gtsam::Pose3 Backend::predicted(double t) const {
+  if (keyframes_.empty()) return gtsam::Pose3();
+  const Eigen::Isometry3d radar_T_body = options_.body_T_radar.inverse();
+  const Keyframe& last = keyframes_.back();
+  if (keyframes_.size() == 1) return to_pose3(last.world_T_radar * radar_T_body);
+  const Keyframe& before = keyframes_[keyframes_.size() - 2];
+  const PlanarPose p = extrapolate_planar(PlanarPose::from_world_T_radar(before.world_T_radar), before.t,
+                                          PlanarPose::from_world_T_radar(last.world_T_radar), last.t, t);
+  return to_pose3(p.world_T_radar() * radar_T_body);
+}
+
 bool Backend::accept(const BackendFrame& f) const {
   if (!std::isfinite(f.t) || (have_previous_ && !(f.t > previous_t_))) return false;
   if (f.dsp == nullptr) return false;

@@ -153,4 +153,16 @@ double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const Pla
   return 0.5 * (it2 * u.squaredNorm() + ir2 * w * w);
 }
 
+PlanarPose extrapolate_planar(const PlanarPose& a, double t_a, const PlanarPose& b, double t_b, double t) {
+  if (!(t_b > t_a)) throw std::invalid_argument("extrapolate_planar: t_b must be after t_a");
+  const double rate = (t - t_b) / (t_b - t_a);
+  const Eigen::Vector2d d = rate * planar_displacement(a, b);  // in b's heading frame, as it was in a's
+  const double c = std::cos(b.yaw), s = std::sin(b.yaw);
+  PlanarPose out = b;
+  out.x += c * d.x() - s * d.y();
+  out.y += s * d.x() + c * d.y();
+  out.yaw = wrap_angle(b.yaw + rate * wrap_angle(b.yaw - a.yaw));
+  return out;
+}
+
 }  // namespace rsrio::splat

@@ -214,3 +214,41 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
   CHECK_THAT(planar_relative_prior(a, b, a_odom, b_odom, 1.0, 1.0, nullptr, nullptr),
              Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
 }
+
+TEST_CASE("extrapolate_planar continues a constant turn exactly over one interval, and b at t_b", "[splat][pose]") {
+  // A rig on a circle of radius 3 m at 0.5 m/s, turning left from heading 2.9 rad (it crosses
+  // +-pi), its z, roll and pitch held.
+  const double radius = 3.0, speed = 0.5, rate = speed / radius, heading0 = 2.9;
+  auto rig = [&](double t) {
+    const double a = rate * t, c = std::cos(heading0), s = std::sin(heading0);
+    const double forward = radius * std::sin(a), left = radius * (1.0 - std::cos(a));
+    PlanarPose p;
+    p.x = 1.0 + c * forward - s * left;
+    p.y = -2.0 + s * forward + c * left;
+    p.yaw = std::remainder(heading0 + a, 2 * std::numbers::pi);
+    p.z = 0.7;
+    p.roll = 0.01;
+    p.pitch = -0.02;
+    return p;
+  };
+  const double dt = 0.4;
+  for (const double t0 : {0.0, 4.0, 9.5}) {
+    const PlanarPose a = rig(t0), b = rig(t0 + dt), truth = rig(t0 + 2 * dt);
+    const PlanarPose next = extrapolate_planar(a, t0, b, t0 + dt, t0 + 2 * dt);
+    CHECK_THAT(next.x, Catch::Matchers::WithinAbs(truth.x, 1e-12));
+    CHECK_THAT(next.y, Catch::Matchers::WithinAbs(truth.y, 1e-12));
+    CHECK_THAT(std::remainder(next.yaw - truth.yaw, 2 * std::numbers::pi), Catch::Matchers::WithinAbs(0.0, 1e-12));
+    CHECK(next.z == b.z);
+    CHECK(next.roll == b.roll);
+    CHECK(next.pitch == b.pitch);
+    // At t_b it is b itself; half an interval on, the heading exactly and the position to within
+    // the chord's turn (half a step of speed dt / 2, off in direction by a quarter of the turn).
+    const PlanarPose same = extrapolate_planar(a, t0, b, t0 + dt, t0 + dt);
+    CHECK_THAT(same.x, Catch::Matchers::WithinAbs(b.x, 1e-12));
+    CHECK_THAT(same.y, Catch::Matchers::WithinAbs(b.y, 1e-12));
+    const PlanarPose half = extrapolate_planar(a, t0, b, t0 + dt, t0 + 1.5 * dt), half_truth = rig(t0 + 1.5 * dt);
+    CHECK_THAT(std::remainder(half.yaw - half_truth.yaw, 2 * std::numbers::pi), Catch::Matchers::WithinAbs(0.0, 1e-12));
+    CHECK(std::hypot(half.x - half_truth.x, half.y - half_truth.y) < 0.5 * speed * dt * 0.25 * rate * dt * 1.1);
+  }
+  CHECK_THROWS_AS(extrapolate_planar(PlanarPose{}, 1.0, PlanarPose{}, 1.0, 2.0), std::invalid_argument);
+}

@@ -388,6 +388,13 @@ class Backend {
   /// closures move it; for frames after the newest keyframe it is corrected(). Without keyframes:
   /// odom_T_body. The end-of-run trajectory (rsrio-replay's estimate_final.tum), not causal.
   gtsam::Pose3 revised(double t, const gtsam::Pose3& odom_T_body) const;
+  /// The body pose at time t (map frame) if the rig keeps the motion of the two newest keyframes
+  /// (extrapolate_planar of their refined radar poses); one keyframe: its pose; none: the origin.
+  /// The pipeline's poses come from the frontend; this is the motion model of the paper's `no
+  /// frontend` ablation (rsrio-replay --backend-poses constant-velocity feeds
+  /// map_T_odom()^-1 predicted(t) as each frame's odom_T_body, so a keyframe starts at the
+  /// prediction and corrected() publishes it).
+  gtsam::Pose3 predicted(double t) const;
 
   // ---- inspection (tests, pictures, benchmarks)
   const BackendOptions& options() const { return options_; }

@@ -77,4 +77,11 @@ double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const Pla
                              const PlanarPose& b_odom, double sigma_translation_m, double sigma_rotation_rad,
                              Eigen::Vector3d* grad_a, Eigen::Vector3d* grad_b);
 
+/// The motion from pose a (time t_a) to pose b (t_b > t_a) continued at the same rate to time t:
+/// b followed by (t - t_b) / (t_b - t_a) of a's planar displacement (in a's heading frame) and
+/// heading change, each turned with the heading; z, roll and pitch are b's. The motion model of a
+/// backend that tracks without a frontend (Backend::predicted). std::invalid_argument unless
+/// t_b > t_a.
+PlanarPose extrapolate_planar(const PlanarPose& a, double t_a, const PlanarPose& b, double t_b, double t);
+
 }  // namespace rsrio::splat
