@@ -108,6 +108,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("max_image_range_m", o.max_image_range_m, {0.0, 10000.0});
   node.read("max_render_range_m", o.max_render_range_m, {0.0, 10000.0});
   node.read("elevation_gain_sigma_sin", o.elevation_gain_sigma_sin, {0.0, 10.0});
+  node.read("range_falloff_exponent", o.range_falloff_exponent, {0.0, 8.0});
   node.read("rd_kernel_sigma_bins", o.rd_kernel_sigma_bins, {0.0, 100.0});
   node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
   node.read("rd_gain", o.rd_gain, {0.0, 1e12});
@@ -205,6 +206,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  max_image_range_m: " << o.max_image_range_m << "\n"
       << "  max_render_range_m: " << o.max_render_range_m << "\n"
       << "  elevation_gain_sigma_sin: " << o.elevation_gain_sigma_sin << "\n"
+      << "  range_falloff_exponent: " << o.range_falloff_exponent << "\n"
       << "  rd_kernel_sigma_bins: " << o.rd_kernel_sigma_bins << "\n"
       << "  rd_window_bins: " << o.rd_window_bins << "\n"
       << "  rd_gain: " << o.rd_gain << "\n"
@@ -358,6 +360,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
                                   grid_.range_bins);
 
   ra_options_.elevation_gain_sigma_sin = options_.elevation_gain_sigma_sin;
+  ra_options_.range_falloff_exponent = options_.range_falloff_exponent;
   rd_options_.kernel_sigma_bins = options_.rd_kernel_sigma_bins > 0
                                       ? options_.rd_kernel_sigma_bins
                                       : window_power_fwhm_bins(options_.psf_doppler_window) / 2.355;
@@ -607,6 +610,16 @@ void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> poin
     const int ka = std::clamp(static_cast<int>(std::lround(p.azimuth_bin)), 0, grid_.azimuth_bins - 1);
     double rho = kf.ra(kr, ka);
     if (!(rho > 0)) rho = p.power;
+    // ... divided by what the renderer multiplies a point's return with here: the elevation gain
+    // (at most 10 x: a point far off the beam has an elevation too uncertain to trust with more)
+    // and the range falloff (RaRenderOptions).
+    const double range = x.norm();
+    if (ra_options_.elevation_gain_sigma_sin > 0 && range > 0) {
+      const double sin_elevation = x.z() / range, s = ra_options_.elevation_gain_sigma_sin;
+      rho /= std::max(0.1, std::exp(-0.5 * sin_elevation * sin_elevation / (s * s)));
+    }
+    if (ra_options_.range_falloff_exponent > 0 && range > 0)
+      rho *= std::pow(range / ra_options_.range_falloff_reference_m, ra_options_.range_falloff_exponent);
     if (!(rho > 0) || !std::isfinite(rho)) continue;
     accepted.emplace_back(w, rho);
   }

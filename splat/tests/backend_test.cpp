@@ -9,6 +9,7 @@
 #include <fstream>
 #include <numbers>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <tuple>
@@ -142,11 +143,14 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
+      "  range_falloff_exponent: 4\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n");
   CHECK(o.mapping_keyframes == 7);
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
+  CHECK(o.range_falloff_exponent == 4);
+  CHECK(o.elevation_gain_sigma_sin == BackendOptions{}.elevation_gain_sigma_sin);
   CHECK(o.lr_pose_translation == BackendOptions{}.lr_pose_translation);
   CHECK(o.loop.search_m == 1.5);
   CHECK(o.loop.sigma_m == 0.1);
@@ -192,6 +196,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
+  fails_on("backend: {range_falloff_exponent: 9}\n", "range_falloff_exponent");
   BackendOptions no_query;
   no_query.loop.max_query_points = 0;
   CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);
@@ -655,6 +660,47 @@ TEST_CASE("Backend: keyframe images beyond max_keyframe_images are dropped farth
   CHECK_THROWS_AS(backend.render_keyframe(0), std::out_of_range);
   CHECK(backend.render_keyframe(kfs.size() - 1).ra_rendered.size() > 0);
   CHECK(backend.stats().nan_guard_hits == 0);
+}
+
+TEST_CASE("Backend: new Gaussians start at the measured power also with range falloff and elevation gain",
+          "[splat][backend]") {
+  // With the radar equation's 1/R^4 and the elevation beam in the renderer, a Gaussian's return is
+  // divided by them at initialisation, so it is drawn as bright as the RA image measured it (as
+  // without them); uncompensated, a point 3-8 m away would start 81-4096 times too dark.
+  const SyntheticRig rig(10);
+  const auto& [config, grids, grid, world] = rig;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  const SyntheticFrame f = synthesise(world, grid, pose, Eigen::Vector3d(0.5, 0, 0));
+  const rsrio::DspResult r = f.view();
+  auto first_map = [&](double falloff, double elevation_gain) {
+    BackendOptions o;
+    o.first_keyframe_mapping_iterations = 0;  // the initial returns as they are
+    o.range_falloff_exponent = falloff;
+    o.elevation_gain_sigma_sin = elevation_gain;
+    auto backend = std::make_unique<Backend>(config, grids, o);
+    backend->add_predecessor(-0.1, gtsam::Pose3(gtsam::Rot3(), gtsam::Point3(-0.05, 0, 0)));
+    REQUIRE(backend->add_frame({0.0, pose3(pose), &r}));
+    return backend;
+  };
+  const auto plain = first_map(0, 0), physical = first_map(4, 0.15);
+  REQUIRE(plain->scene().size() > 20);
+  REQUIRE(physical->scene().size() == plain->scene().size());
+  RaRenderOptions plain_options, physical_options;
+  physical_options.range_falloff_exponent = 4;
+  physical_options.elevation_gain_sigma_sin = 0.15;
+  const RaRenderer<double> plain_renderer(grid, plain_options), physical_renderer(grid, physical_options);
+  double far = 0;
+  for (std::size_t i = 0; i < plain->scene().size(); ++i) {
+    const GaussianFootprint a = plain_renderer.footprint(plain->scene(), i, pose.inverse());
+    const GaussianFootprint b = physical_renderer.footprint(physical->scene(), i, pose.inverse());
+    REQUIRE(a.visible);
+    REQUIRE(b.visible);
+    // The same peak but for the elevation gain's spread over the Gaussian's own extent.
+    CHECK(b.amplitude / a.amplitude > 0.8);
+    CHECK(b.amplitude / a.amplitude < 1.0 + 1e-9);
+    far = std::max(far, (physical->scene().mean(i)).norm());
+  }
+  CHECK(far > 3.0);
 }
 
 TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[splat][backend]") {

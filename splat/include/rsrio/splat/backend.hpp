@@ -135,6 +135,7 @@ struct BackendOptions {
                                        // indoors the far bins hold noise and ghosts, and cost time
   double max_render_range_m = 0;       // Gaussians farther than this from the radar are not drawn (0: grid)
   double elevation_gain_sigma_sin = 0; // RaRenderOptions
+  double range_falloff_exponent = 0;   // RaRenderOptions (reference 1 m); 4: the radar equation
   // Doppler soft-binning sigma in bins. <= 0: the DSP's Doppler main lobe (psf_doppler_window's
   // power FWHM / 2.355, 0.61 bins for hann). The paper's 3 bins suit its fine Doppler bins; on
   // an xwr1843 frame (0.29 m/s bins) 3 bins blur the RD image so much that it hardly depends
