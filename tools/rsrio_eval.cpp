@@ -2,6 +2,7 @@
 //
 //   rsrio-eval --gt GT.tum --est EST.tum [--align se3|se2|none] [--plot OUT.png]
 //   rsrio-eval --table | --table-json | --ablation [--data DIR] [--scenarios DIR] [--sequences 1,2,...] [--config FILE] [--reuse]
+//   rsrio-eval --ablation --variants full,noba,... (only these rows; names as the output directories)
 //
 // --table reproduces the paper's Table II for the five shipped scenarios (scenarios/seq1..seq5):
 // it makes each recording with rsrio-sim when DIR/<scenario>.mcap is missing, replays it with
@@ -9,17 +10,20 @@
 // config/rsrio.yaml when present) and prints the APE (SE(3) Umeyama alignment, one pair per
 // estimated pose) of the frontend and of the full method, next to the paper's columns.
 // --ablation replays each sequence once per variant of the paper's Tables III and IV (into
-// DIR/<scenario>_ablation_<variant>) and prints their APE averaged over the sequences.
+// DIR/<scenario>_ablation_<variant>) and prints their APE averaged over the sequences; --variants
+// replays only some of them (a whole ablation of the five sequences takes hours).
 // rsrio-sim and rsrio-replay are taken from the directory of this program.
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -291,8 +295,39 @@ int table(Tables& tables, const std::string& sequences, bool json) {
   return all_ok ? 0 : 1;
 }
 
+// A variant's name on the command line: its directory suffix without "ablation_", "full" for the
+// full method.
+std::string variant_name(const Variant& v) {
+  const std::string key = v.key;
+  return &v == &kFull ? "full" : key.substr(key.find('_') + 1);
+}
+
+// The variants named in a comma-separated list (all when it is empty), in the tables' order; an
+// unknown name throws std::invalid_argument listing the names (a usage error).
+std::vector<const Variant*> selected_variants(const std::string& list) {
+  std::vector<const Variant*> all{&kFull};
+  for (const Variant& v : kAblations) all.push_back(&v);
+  if (list.empty()) return all;
+  std::vector<std::string> names;
+  std::stringstream in(list);
+  for (std::string name; std::getline(in, name, ',');) names.push_back(name);
+  for (const std::string& name : names) {
+    bool known = false;
+    for (const Variant* v : all) known |= variant_name(*v) == name;
+    if (!known) {
+      std::string valid;
+      for (const Variant* v : all) valid += (valid.empty() ? "" : ", ") + variant_name(*v);
+      throw std::invalid_argument("--variants: unknown variant '" + name + "' (one of: " + valid + ")");
+    }
+  }
+  std::vector<const Variant*> out;
+  for (const Variant* v : all)
+    if (std::find(names.begin(), names.end(), variant_name(*v)) != names.end()) out.push_back(v);
+  return out;
+}
+
 // Tables III and IV: each variant's APE averaged over the selected sequences (as the paper).
-int ablation(Tables& tables, const std::string& sequences) {
+int ablation(Tables& tables, const std::string& sequences, const std::vector<const Variant*>& variants) {
   struct Line {
     explicit Line(const Variant* variant) : v(variant) {}
     const Variant* v;
@@ -301,8 +336,8 @@ int ablation(Tables& tables, const std::string& sequences) {
     int n = 0, n_final = 0;
     std::string error;
   };
-  std::vector<Line> lines{Line(&kFull)};
-  for (const Variant& v : kAblations) lines.emplace_back(&v);
+  std::vector<Line> lines;
+  for (const Variant* v : variants) lines.emplace_back(v);
   for (std::size_t i : selected(sequences))
     for (Line& l : lines) {
       const Run result = tables.evaluate(kSequences[i], *l.v);
@@ -346,7 +381,7 @@ void print_stats(const char* name, const rsrio::eval::ErrorStats& s) {
 
 int main(int argc, char** argv) {
   std::string gt, est, align = "se3", plot, delta = "1.0", max_dt = "0.01";
-  std::string data_dir = "build/data", scenario_dir = "scenarios", sequences;
+  std::string data_dir = "build/data", scenario_dir = "scenarios", sequences, variants;
   bool do_table = false, table_json = false, reuse = false, do_ablation = false;
   rsrio::Cli cli("rsrio-eval", "Absolute and relative pose error of an estimate against ground truth (TUM files),\n"
                                "computed as evo_ape / evo_rpe do, with an optional trajectory plot.");
@@ -363,12 +398,22 @@ int main(int argc, char** argv) {
       .option("--sequences", "LIST", "--table: only these sequences, e.g. 1,3 (default all five)", &sequences)
       .flag("--ablation", "as --table, the ablations of the paper's Tables III and IV (averaged over the sequences)",
             &do_ablation)
+      .option("--variants", "LIST", "--ablation: only these rows, e.g. full,noba,r1 (default all; names as the "
+              "output directories' ablation_<name>, full for the full method)", &variants)
       .flag("--reuse", "--table: keep existing replay outputs instead of replaying", &reuse);
   if (auto rc = cli.parse(argc, argv)) return *rc;
+  std::vector<const Variant*> rows;
+  try {
+    if (!variants.empty() && !do_ablation) throw std::invalid_argument("--variants needs --ablation");
+    rows = selected_variants(variants);
+  } catch (const std::invalid_argument& ex) {
+    std::cerr << "rsrio-eval: " << ex.what() << "\n(see rsrio-eval --help)\n";
+    return rsrio::kExitUsage;
+  }
   if (do_table || table_json || do_ablation) {
     try {
       Tables tables(data_dir, scenario_dir, cli.config_path(), reuse);
-      return do_ablation ? ablation(tables, sequences) : table(tables, sequences, table_json);
+      return do_ablation ? ablation(tables, sequences, rows) : table(tables, sequences, table_json);
     } catch (const std::exception& ex) {
       std::cerr << "rsrio-eval: error: " << ex.what() << "\n";
       return 1;

@@ -74,6 +74,16 @@ check "backend poses unknown" 2 "--backend-poses" "$replay" --input "$tmp/rec.mc
 check "backend poses without ba" 2 "needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend-poses constant-velocity
 check "backend poses pipelined" 2 "sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --pipelined \
   --backend-poses constant-velocity
+# rsrio-eval --ablation on a recording put where it looks for sequence 1: only the rows asked for
+# are replayed and printed (each into its own directory), an unknown row is a usage error.
+mkdir -p "$tmp/data" && cp "$tmp/rec.mcap" "$tmp/data/seq1_meeting_room.mcap"
+check "ablation rows" 0 "backend off (frontend only)" "$eval" --ablation --sequences 1 --variants nobackend \
+  --data "$tmp/data" --config "$tmp/tiny.yaml"
+[ -s "$tmp/data/seq1_meeting_room_ablation_nobackend/estimate.tum" ] && ok "ablation: the row's replay" || bad "ablation: no replay of the row"
+ls -d "$tmp/data"/seq1_meeting_room_* | grep -qv '_ablation_nobackend$' && bad "ablation: rows not asked for were replayed" \
+  || ok "ablation: no other row replayed"
+check "ablation unknown row" 2 "unknown variant 'r7' (one of: full, noba, r1" "$eval" --ablation --variants noba,r7 --data "$tmp/data"
+check "variants without ablation" 2 "--variants needs --ablation" "$eval" --table --variants noba --data "$tmp/data"
 check "backend unknown" 2 "--backend" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend foo
 check "no input" 2 "--input and --out are required" "$replay" --out "$tmp/x"
 printf 'frontend:\n  window_state: 5\n' > "$tmp/typo.yaml"
