@@ -30,6 +30,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <string>
@@ -151,17 +152,48 @@ double parabolic_minimum(const std::vector<double>& s, const std::vector<double>
   return den > 0 ? s[i] + 0.5 * (l - r) / den * (s[i + 1] - s[i]) : s[i];
 }
 
-SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int stride) {
-  rsrio::sim::Scenario scenario = rsrio::sim::load_scenario(scenario_path);
-  scenario.duration_s = t1 + 0.5;
-  rsrio::sim::Simulation sim(scenario, 2);
-  rsrio::DspProcessor dsp(sim.radar().config());
-  const RadarImageGrid grid = RadarImageGrid::from_config(sim.radar().config());
-  // The simulator's scatterers as point-like Gaussians, drawn as the RA test does (1/R^4, the
-  // simulator's elevation beam): only their directions per pixel are used.
+// Simulated frames of a scenario through the DSP, with the simulator's static scatterers as
+// point-like Gaussians (2 cm, return = RCS): what both model fits below compare.
+struct SimulatedStretch {
+  rsrio::sim::Scenario scenario;
+  std::unique_ptr<rsrio::sim::Simulation> sim;
+  std::unique_ptr<rsrio::DspProcessor> dsp;
+  RadarImageGrid grid;
   GaussianScene scene;
-  for (const rsrio::sim::Scatterer& p : sim.scene().static_scatterers())
-    scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
+
+  SimulatedStretch(const char* scenario_path, double t1) : scenario(rsrio::sim::load_scenario(scenario_path)) {
+    scenario.duration_s = t1 + 0.5;
+    sim = std::make_unique<rsrio::sim::Simulation>(scenario, 2);
+    dsp = std::make_unique<rsrio::DspProcessor>(sim->radar().config());
+    grid = RadarImageGrid::from_config(sim->radar().config());
+    for (const rsrio::sim::Scatterer& p : sim->scene().static_scatterers())
+      scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
+    scene.update_index();
+  }
+  // visit(radar state, world_T_radar, DSP result) for every stride-th frame whose middle lies in
+  // [t0, t1] and for which wanted(radar state) holds (simulated only then).
+  template <typename Wanted, typename Visit>
+  void for_each_frame(double t0, double t1, int stride, Wanted&& wanted, Visit&& visit) {
+    rsrio::AdcCube cube;
+    for (std::uint64_t k = 0; k < sim->radar_frames(); k += static_cast<std::uint64_t>(stride)) {
+      const double t = 0.5 * (sim->radar().frame_start(k) + sim->radar().frame_completion(k));
+      if (t < t0 || t > t1) continue;
+      const rsrio::sim::RigState radar = sim->radar_state(t);
+      if (!wanted(radar)) continue;
+      sim->radar().simulate(k, cube);
+      Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
+      world_T_radar.linear() = radar.rotation;
+      world_T_radar.translation() = radar.position;
+      visit(radar, world_T_radar, dsp->process(cube));
+    }
+  }
+};
+
+SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int stride) {
+  SimulatedStretch stretch(scenario_path, t1);
+  const RadarImageGrid& grid = stretch.grid;
+  // The scatterers drawn as the RA test does (1/R^4, the simulator's elevation beam): only their
+  // directions per pixel are used.
   RaRenderOptions ro;
   ro.range_falloff_exponent = 4;
   ro.elevation_gain_sigma_sin = kSimulatorElevationGain;
@@ -174,27 +206,17 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
   std::vector<double> scales;
   for (int k = 0; k <= 40; ++k) scales.push_back(0.90 + 0.005 * k);
   std::vector<double> loss_flat(scales.size(), 0.0), loss_dir(scales.size(), 0.0);
-  rsrio::AdcCube cube;
   Image<float> rendered, rd_target;
   PixelDirections<float> directions;
-  scene.update_index();
-  for (std::uint64_t k = 0; k < sim.radar_frames(); k += static_cast<std::uint64_t>(stride)) {
-    const double t = 0.5 * (sim.radar().frame_start(k) + sim.radar().frame_completion(k));
-    if (t < t0 || t > t1) continue;
-    const rsrio::sim::RigState radar = sim.radar_state(t);
+  const auto moving = [](const rsrio::sim::RigState& radar) { return radar.velocity.norm() >= 0.3; };
+  stretch.for_each_frame(t0, t1, stride, moving, [&](const rsrio::sim::RigState& radar,
+                                                     const Eigen::Isometry3d& world_T_radar, const rsrio::DspResult& r) {
     const Eigen::Vector3d v = radar.rotation.transpose() * radar.velocity;
-    if (v.norm() < 0.3) continue;
-    sim.radar().simulate(k, cube);
-    const rsrio::DspResult& r = dsp.process(cube);
     const Image<float> ra = Eigen::Map<const Image<float>>(r.ra.data(), grid.range_bins, grid.azimuth_bins);
     const Image<float> rd = Eigen::Map<const Image<float>>(r.rd.data(), grid.range_bins, grid.doppler_bins);
-    Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
-    world_T_radar.linear() = radar.rotation;
-    world_T_radar.translation() = radar.position;
-    const Eigen::Isometry3d radar_T_world = world_T_radar.inverse();
     std::vector<std::uint32_t> near;
-    scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m, near);
-    ra_renderer.render_directions(scene, radar_T_world, near, directions);
+    stretch.scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m, near);
+    ra_renderer.render_directions(stretch.scene, world_T_radar.inverse(), near, directions);
     // The backend's loss; the RD / RA scale calibrated on each frame at the true velocity (the
     // backend calibrates once, on its first keyframe, the same way).
     rdo.gain = 1.0;
@@ -213,7 +235,7 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
       loss_dir[i] += loss.evaluate(rendered, rd_target, nullptr);
     }
     ++out.frames;
-  }
+  });
   out.best_flat = parabolic_minimum(scales, loss_flat);
   out.best_directions = parabolic_minimum(scales, loss_dir);
   return out;
@@ -238,15 +260,8 @@ struct BeamModel {
 };
 
 PoseFit fit_ra_pose(const char* scenario_path, double t0, double t1, int stride, const BeamModel& beam) {
-  rsrio::sim::Scenario scenario = rsrio::sim::load_scenario(scenario_path);
-  scenario.duration_s = t1 + 0.5;
-  rsrio::sim::Simulation sim(scenario, 2);
-  rsrio::DspProcessor dsp(sim.radar().config());
-  const RadarImageGrid grid = RadarImageGrid::from_config(sim.radar().config());
-  GaussianScene scene;
-  for (const rsrio::sim::Scatterer& p : sim.scene().static_scatterers())
-    scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
-  scene.update_index();
+  SimulatedStretch stretch(scenario_path, t1);
+  const RadarImageGrid& grid = stretch.grid;
   RaRenderOptions ro;
   ro.range_falloff_exponent = 4;
   ro.elevation_gain_sigma_sin = beam.elevation_gain_sigma_sin;
@@ -257,38 +272,32 @@ PoseFit fit_ra_pose(const char* scenario_path, double t0, double t1, int stride,
   for (int k = -12; k <= 12; ++k) steps.push_back(k / 12.0);
   const double yaw_span = 0.6 * std::numbers::pi / 180.0, shift_span = 0.1;
   std::vector<double> loss_yaw(steps.size(), 0.0), loss_forward(steps.size(), 0.0), loss_left(steps.size(), 0.0);
-  rsrio::AdcCube cube;
   Image<float> rendered, target;
   PoseFit out;
-  for (std::uint64_t k = 0; k < sim.radar_frames(); k += static_cast<std::uint64_t>(stride)) {
-    const double t = 0.5 * (sim.radar().frame_start(k) + sim.radar().frame_completion(k));
-    if (t < t0 || t > t1) continue;
-    const rsrio::sim::RigState radar = sim.radar_state(t);
-    sim.radar().simulate(k, cube);
-    const rsrio::DspResult& r = dsp.process(cube);
+  const auto every = [](const rsrio::sim::RigState&) { return true; };
+  stretch.for_each_frame(t0, t1, stride, every, [&](const rsrio::sim::RigState& radar,
+                                                    const Eigen::Isometry3d& world_T_radar, const rsrio::DspResult& r) {
     const Image<float> ra = Eigen::Map<const Image<float>>(r.ra.data(), grid.range_bins, grid.azimuth_bins);
-    Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
-    world_T_radar.linear() = radar.rotation;
-    world_T_radar.translation() = radar.position;
     std::vector<std::uint32_t> near;
-    scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m + 1.0, near);
+    stretch.scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m + 1.0, near);
+    GaussianScene whole_beam;
+    if (beam.whole_beam) {
+      // Every scatterer with the simulator's two-way beam (its pattern on the amplitude, squared)
+      // at the true pose in its return; the yaw and shifts scanned change it by little.
+      const auto& model = stretch.scenario.radar_model;
+      const double bw_az = model.azimuth_beamwidth_deg * std::numbers::pi / 180;
+      const double bw_el = model.elevation_beamwidth_deg * std::numbers::pi / 180;
+      for (const rsrio::sim::Scatterer& p : stretch.sim->scene().static_scatterers()) {
+        const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
+        const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
+        const double pattern = std::exp(-4 * std::log(2.0) * ((az / bw_az) * (az / bw_az) + (el / bw_el) * (el / bw_el)));
+        whole_beam.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),
+                       std::log(std::max(1e-30, p.rcs_m2 * pattern * pattern)));
+      }
+    }
+    const GaussianScene& drawn = beam.whole_beam ? whole_beam : stretch.scene;
     // The rendered scale is the scatterers' RCS, not the DSP's power: one gain per frame, the
     // ratio of the sums at the true pose.
-    GaussianScene physical;
-    if (beam.whole_beam) {
-      // Every scatterer with the simulator's two-way beam at the true pose in its return.
-      const double bw_az = scenario.radar_model.azimuth_beamwidth_deg * std::numbers::pi / 180;
-      const double bw_el = scenario.radar_model.elevation_beamwidth_deg * std::numbers::pi / 180;
-      for (const rsrio::sim::Scatterer& p : sim.scene().static_scatterers()) {
-        const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
-        const double th = std::atan2(d.y(), d.x()), ph = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
-        const double pattern = std::exp(-4 * std::log(2.0) * ((th / bw_az) * (th / bw_az) + (ph / bw_el) * (ph / bw_el)));
-        physical.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),
-                     std::log(std::max(1e-30, p.rcs_m2 * pattern * pattern)));
-      }
-      physical.update_index();
-    }
-    const GaussianScene& drawn = beam.whole_beam ? physical : scene;
     renderer.render(drawn, world_T_radar.inverse(), near, rendered);
     const float gain = static_cast<float>(ra.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum()));
     lo.compression.reference = percentile_reference(r.ra, 99.0);
@@ -308,7 +317,7 @@ PoseFit fit_ra_pose(const char* scenario_path, double t0, double t1, int stride,
       loss_left[i] += loss_at(0, 0, steps[i] * shift_span);
     }
     ++out.frames;
-  }
+  });
   out.yaw_deg = parabolic_minimum(steps, loss_yaw) * yaw_span * 180.0 / std::numbers::pi;
   out.forward_m = parabolic_minimum(steps, loss_forward) * shift_span;
   out.left_m = parabolic_minimum(steps, loss_left) * shift_span;
