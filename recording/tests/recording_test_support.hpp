@@ -91,9 +91,8 @@ inline nav_msgs::msg::Odometry make_odometry(int i) {
   return m;
 }
 
-inline sensor_msgs::msg::PointCloud2 make_point_cloud(int i, int points) {
-  sensor_msgs::msg::PointCloud2 m;
-  stamp(m.header(), kT0 + 100'000'000ull * static_cast<std::uint64_t>(i), "radar");
+/// The fields of a CFAR point cloud: x, y, z, v_doppler_mps, snr_db, float32 each (20 bytes a point).
+inline std::vector<sensor_msgs::msg::PointField> point_cloud_fields() {
   const char* names[] = {"x", "y", "z", "v_doppler_mps", "snr_db"};
   std::vector<sensor_msgs::msg::PointField> fields;
   for (std::uint32_t f = 0; f < 5; ++f) {
@@ -104,7 +103,13 @@ inline sensor_msgs::msg::PointCloud2 make_point_cloud(int i, int points) {
     field.count(1);
     fields.push_back(field);
   }
-  m.fields(fields);
+  return fields;
+}
+
+inline sensor_msgs::msg::PointCloud2 make_point_cloud(int i, int points) {
+  sensor_msgs::msg::PointCloud2 m;
+  stamp(m.header(), kT0 + 100'000'000ull * static_cast<std::uint64_t>(i), "radar");
+  m.fields(point_cloud_fields());
   m.height(1);
   m.width(static_cast<std::uint32_t>(points));
   m.is_bigendian(false);

@@ -18,12 +18,13 @@
 
 #include "rsrio/common/radar_config.hpp"
 #include "rsrio/recording/recording.hpp"
+#include "recording_test_support.hpp"
 
 namespace {
 
 using namespace rsrio;
-
-constexpr std::uint64_t kT0 = 1'700'000'000'000'000'000ull;
+using test::kT0;
+using test::stamp;
 
 // ---- a minimal JSON writer: exact doubles (%.17g round-trips through Python's float) ----------
 std::string number(double v) {
@@ -166,12 +167,6 @@ std::string json(const rsrio_msgs::msg::RadarFrame& m) {
                                  {"sum", number(sum)}})}});
 }
 
-void stamp(std_msgs::msg::Header& header, std::uint64_t t_ns, const std::string& frame) {
-  header.stamp().sec(static_cast<std::int32_t>(t_ns / 1'000'000'000));
-  header.stamp().nanosec(static_cast<std::uint32_t>(t_ns % 1'000'000'000));
-  header.frame_id(frame);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -248,17 +243,7 @@ int main(int argc, char** argv) {
 
         sensor_msgs::msg::PointCloud2 cloud;
         stamp(cloud.header(), t - 2000, "radar");
-        const char* names[] = {"x", "y", "z", "v_doppler_mps", "snr_db"};
-        std::vector<sensor_msgs::msg::PointField> fields;
-        for (std::uint32_t f = 0; f < 5; ++f) {
-          sensor_msgs::msg::PointField field;
-          field.name(names[f]);
-          field.offset(4 * f);
-          field.datatype(sensor_msgs::msg::PointField_Constants::FLOAT32);
-          field.count(1);
-          fields.push_back(field);
-        }
-        cloud.fields(fields);
+        cloud.fields(test::point_cloud_fields());
         cloud.height(1);
         cloud.width(static_cast<std::uint32_t>(3 + n));
         cloud.point_step(20);
