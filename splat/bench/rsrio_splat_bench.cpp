@@ -4,16 +4,17 @@
 //     loss with its gradient, RD forward and backward, for 2k and 10k Gaussians, float and double.
 //     One thread. Numbers are medians over repeated runs.
 //     The RD renderer with the backend's kernel (the DSP's Doppler lobe, 0.61 bins), at
-//     elevation 0 and with the Gaussians' pixel directions (RaRenderer::render_directions, also
-//     timed).
+//     elevation 0 (RD), with the Gaussians' pixel directions (RD+d; RaRenderer::render_directions,
+//     "dirs", also timed) and marginalised over the elevation beam (RD+b: three elevations).
 //  2. the backend per keyframe (splat::Backend with its default options: pose refinement,
 //     mapping, BA) on a synthetic walk through a room of Gaussians whose images are rendered
 //     (so the optimisation has the work of a real stretch without the simulator): mean and
 //     maximum time per stage and keyframe, Gaussians, and the process's peak memory (ru_maxrss).
 //  3. the speed the RD model fits best on simulated cascade frames (sequence 1, meeting room,
 //     through the real DSP): the DSP's RD against RD rendered from the DSP's RA at s x the true
-//     velocity, s = 0.90 .. 1.10, with each pixel's Doppler at elevation 0 and from the
-//     directions of the simulator's scatterers drawn as Gaussians. A best s below 1 pulls the
+//     velocity, s = 0.90 .. 1.10, with each pixel's Doppler at elevation 0, marginalised over the
+//     simulator's elevation beam (RdRenderOptions::elevation_sigma_sin), and from the directions
+//     of the simulator's scatterers drawn as Gaussians. A best s below 1 pulls the
 //     backend's keyframe spacing short.
 //  4. the pose the RA model fits best on simulated cascade frames through the DSP: the offsets
 //     (yaw, forward, left) from the true radar pose at which the backend's RA loss of the
@@ -65,6 +66,11 @@ double median_ms(int reps, const std::function<void()>& f) {
   std::nth_element(t.begin(), t.begin() + t.size() / 2, t.end());
   return t[t.size() / 2];
 }
+
+// The shipped scenarios' elevation beam (30 deg one-way half-power, the simulator's pattern on the
+// amplitude) as the renderer's elevation gain: the two-way power's sigma in sin(elevation),
+// sin(30 deg / (4 sqrt(ln 2))).
+const double kSimulatorElevationGain = std::sin(30.0 * std::numbers::pi / 180.0 / (4 * std::sqrt(std::log(2.0))));
 
 GaussianScene make_scene(int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -120,29 +126,34 @@ void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scen
   const double t_rd_dir_fwd = median_ms(reps, [&] { rd_renderer.render(ra, velocity, rd, &directions); });
   const double t_rd_dir_bwd =
       median_ms(reps, [&] { rd_renderer.backward(ra, velocity, grad_rd, &grad_ra, &grad_v, &directions); });
+  RdRenderOptions beam_options = rdo;
+  beam_options.elevation_sigma_sin = kSimulatorElevationGain;
+  RdRenderer<Scalar> beam_renderer(grid, beam_options);
+  const double t_rd_beam_fwd = median_ms(reps, [&] { beam_renderer.render(ra, velocity, rd); });
+  const double t_rd_beam_bwd =
+      median_ms(reps, [&] { beam_renderer.backward(ra, velocity, grad_rd, &grad_ra, &grad_v); });
   const double total = t_fwd + t_bwd + t_loss + t_rd_fwd + t_rd_bwd + t_rd_loss;
-  std::printf("| %6zu | %-6s | %8.0f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %7.0f | %8.3f | %8.3f | %8.3f |\n",
+  std::printf("| %6zu | %-6s | %8.0f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %7.0f | %8.3f | %8.3f | %8.3f "
+              "| %8.3f | %8.3f |\n",
               scene.size(), type, static_cast<double>(stats.pixels) / static_cast<double>(scene.size()), t_fwd,
-              t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total, t_dir, t_rd_dir_fwd, t_rd_dir_bwd);
+              t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total, t_dir, t_rd_dir_fwd, t_rd_dir_bwd,
+              t_rd_beam_fwd, t_rd_beam_bwd);
 }
 
 void print_render_header() {
   std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    "
-              "| dirs     | RD+d fwd | RD+d bwd |\n");
+              "| dirs     | RD+d fwd | RD+d bwd | RD+b fwd | RD+b bwd |\n");
   std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------"
-              "|----------|----------|----------|\n");
+              "|----------|----------|----------|----------|----------|\n");
 }
 
 // ---- the speed the RD model fits best on simulated frames
 
-// The shipped scenarios' elevation beam (30 deg one-way half-power, the simulator's pattern on the
-// amplitude) as the renderer's elevation gain: the two-way power's sigma in sin(elevation),
-// sin(30 deg / (4 sqrt(ln 2))).
-const double kSimulatorElevationGain = std::sin(30.0 * std::numbers::pi / 180.0 / (4 * std::sqrt(std::log(2.0))));
-
 struct SpeedFit {
   int frames = 0;
-  double best_flat = 0, best_directions = 0;  // s with the lowest summed loss (parabolic refinement)
+  // s with the lowest summed loss (parabolic refinement): elevation 0, the elevation beam
+  // (RdRenderOptions::elevation_sigma_sin), the scatterers' directions
+  double best_flat = 0, best_beam = 0, best_directions = 0;
 };
 
 double parabolic_minimum(const std::vector<double>& s, const std::vector<double>& loss) {
@@ -205,7 +216,7 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
   SpeedFit out;
   std::vector<double> scales;
   for (int k = 0; k <= 40; ++k) scales.push_back(0.90 + 0.005 * k);
-  std::vector<double> loss_flat(scales.size(), 0.0), loss_dir(scales.size(), 0.0);
+  std::vector<double> loss_flat(scales.size(), 0.0), loss_beam(scales.size(), 0.0), loss_dir(scales.size(), 0.0);
   Image<float> rendered, rd_target;
   PixelDirections<float> directions;
   const auto moving = [](const rsrio::sim::RigState& radar) { return radar.velocity.norm() >= 0.3; };
@@ -225,18 +236,24 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
     RdRenderOptions calibrated = rdo;
     calibrated.gain = rd.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum());
     RdRenderer<float> renderer(grid, calibrated);
+    RdRenderOptions beam_options = calibrated;
+    beam_options.elevation_sigma_sin = kSimulatorElevationGain;
+    RdRenderer<float> beam(grid, beam_options);
     lo.compression.reference = percentile_reference(r.rd, 99.0);
     ImageLoss<float> loss(lo);
     loss.prepare_measurement(rd, rd_target);
     for (std::size_t i = 0; i < scales.size(); ++i) {
       renderer.render(ra, scales[i] * v, rendered);
       loss_flat[i] += loss.evaluate(rendered, rd_target, nullptr);
+      beam.render(ra, scales[i] * v, rendered);
+      loss_beam[i] += loss.evaluate(rendered, rd_target, nullptr);
       renderer.render(ra, scales[i] * v, rendered, &directions);
       loss_dir[i] += loss.evaluate(rendered, rd_target, nullptr);
     }
     ++out.frames;
   });
   out.best_flat = parabolic_minimum(scales, loss_flat);
+  out.best_beam = parabolic_minimum(scales, loss_beam);
   out.best_directions = parabolic_minimum(scales, loss_dir);
   return out;
 }
@@ -444,8 +461,10 @@ int main() {
   std::printf("\nthe speed the RD model fits best (x the true speed) on sequence 1's cascade frames, 5-35 s, every "
               "3rd frame, through the DSP\n\n");
   const SpeedFit fit = fit_rd_speed("scenarios/seq1_meeting_room.yaml", 5.0, 35.0, 3);
-  std::printf("| frames | elevation 0 | scatterers' directions |\n|--------|-------------|------------------------|\n");
-  std::printf("| %6d | %11.3f | %22.3f |\n", fit.frames, fit.best_flat, fit.best_directions);
+  std::printf("| frames | elevation 0 | elevation beam (sigma %.3f) | scatterers' directions |\n"
+              "|--------|-------------|-----------------------------|------------------------|\n",
+              kSimulatorElevationGain);
+  std::printf("| %6d | %11.3f | %27.3f | %22.3f |\n", fit.frames, fit.best_flat, fit.best_beam, fit.best_directions);
 
   std::printf("\nthe pose the RA model fits best (offset from the true radar pose: yaw deg / forward m / left m) on "
               "simulated cascade frames through the DSP, the simulator's scatterers drawn as Gaussians with 1/R^4\n\n");

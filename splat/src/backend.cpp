@@ -113,6 +113,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
   node.read("rd_gain", o.rd_gain, {0.0, 1e12});
   node.read("rd_gaussian_directions", o.rd_gaussian_directions);
+  node.read("rd_elevation_sigma_sin", o.rd_elevation_sigma_sin, {0.0, 0.49});
   node.read_choice("psf_range_window", o.psf_range_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_angle_window", o.psf_angle_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_doppler_window", o.psf_doppler_window, {"none", "hann", "hamming", "blackman"});
@@ -211,6 +212,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  rd_window_bins: " << o.rd_window_bins << "\n"
       << "  rd_gain: " << o.rd_gain << "\n"
       << "  rd_gaussian_directions: " << (o.rd_gaussian_directions ? "true" : "false") << "\n"
+      << "  rd_elevation_sigma_sin: " << o.rd_elevation_sigma_sin << "\n"
       << "  psf_range_window: " << o.psf_range_window << "\n"
       << "  psf_angle_window: " << o.psf_angle_window << "\n"
       << "  psf_doppler_window: " << o.psf_doppler_window << "\n"
@@ -285,6 +287,8 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (o.loop_reference_keyframes < 1) fail("loop_reference_keyframes", "an integer >= 1");
   if (o.loop_every_keyframes < 1) fail("loop_every_keyframes", "an integer >= 1");
   if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
+  if (!(o.rd_elevation_sigma_sin >= 0 && o.rd_elevation_sigma_sin < 0.5))
+    fail("rd_elevation_sigma_sin", "a number in [0, 0.5) (0: elevation 0)");
   for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
     const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";
     if (s->max_iterations < 0) fail(name + ".max_iterations", "an integer >= 0");
@@ -365,6 +369,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
                                       ? options_.rd_kernel_sigma_bins
                                       : window_power_fwhm_bins(options_.psf_doppler_window) / 2.355;
   rd_options_.window_bins = options_.rd_window_bins;
+  rd_options_.elevation_sigma_sin = options_.rd_elevation_sigma_sin;
   for (ImageLossOptions* l : {&ra_loss_options_, &rd_loss_options_}) {
     l->l1_weight = options_.l1_weight;
     l->ssim_weight = options_.ssim_weight;

@@ -41,23 +41,47 @@ RdRenderer<Scalar>::RdRenderer(const RadarImageGrid& grid, const RdRenderOptions
   grid_.validate();
   if (!(options_.kernel_sigma_bins > 0)) throw std::invalid_argument("RdRenderOptions: kernel_sigma_bins must be positive");
   if (options_.window_bins < 0) throw std::invalid_argument("RdRenderOptions: window_bins must be >= 0");
+  if (!(options_.elevation_sigma_sin >= 0 && options_.elevation_sigma_sin < 0.5))
+    throw std::invalid_argument("RdRenderOptions: elevation_sigma_sin must be in [0, 0.5)");
   window_ = effective_window(options_);
   taps_ = 2 * window_ + 1;
+  // Elevation nodes: 3-point Gauss-Hermite in sin(elevation) (exact for the beam's mean and
+  // variance), or elevation 0 alone.
+  if (options_.elevation_sigma_sin > 0) {
+    const double e = std::sqrt(3.0) * options_.elevation_sigma_sin;
+    node_sin_ = {-e, 0.0, e};
+    node_weight_ = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
+  } else {
+    node_sin_ = {0.0};
+    node_weight_ = {1.0};
+  }
+  nodes_ = static_cast<int>(node_sin_.size());
+  bin_taps_ = nodes_ * taps_;
   const int na = grid_.azimuth_bins;
-  cos_.resize(na);
+  cos_.assign(static_cast<std::size_t>(na) * nodes_, 0.0);
   sin_.resize(na);
   phi_.resize(na);
+  node_phi_.assign(static_cast<std::size_t>(na) * nodes_, Scalar(0));
   for (int a = 0; a < na; ++a) {
     sin_[a] = grid_.azimuth_sin(a);
     const bool valid = grid_.azimuth_valid(a);
-    cos_[a] = valid ? std::sqrt(1.0 - sin_[a] * sin_[a]) : 0.0;
     phi_[a] = valid ? static_cast<Scalar>(options_.gain * options_.antenna.weight(sin_[a])) : Scalar(0);
+    for (int q = 0; q < nodes_; ++q) {
+      // The direction (sqrt(cos^2 el - u^2), u, sin el): its forward part; none where the
+      // elevation leaves no room for the azimuth (|u| > cos el).
+      const double cos2_el = 1.0 - node_sin_[q] * node_sin_[q], forward2 = cos2_el - sin_[a] * sin_[a];
+      const std::size_t i = static_cast<std::size_t>(a) * nodes_ + q;
+      if (!valid || forward2 < 0) continue;
+      cos_[i] = std::sqrt(forward2);
+      node_phi_[i] = static_cast<Scalar>(static_cast<double>(phi_[a]) * node_weight_[q]);
+    }
   }
-  index_.assign(static_cast<std::size_t>(na) * taps_, 0);
-  weight_.assign(static_cast<std::size_t>(na) * taps_, Scalar(0));
-  weight_dv_.assign(static_cast<std::size_t>(na) * taps_, Scalar(0));
-  active_.assign(na, 0);
-  grad_vd_.assign(na, 0.0);
+  index_.assign(static_cast<std::size_t>(na) * bin_taps_, 0);
+  weight_.assign(static_cast<std::size_t>(na) * bin_taps_, Scalar(0));
+  weight_dv_.assign(static_cast<std::size_t>(na) * bin_taps_, Scalar(0));
+  active_.assign(static_cast<std::size_t>(na) * nodes_, 0);
+  bin_active_.assign(na, 0);
+  grad_vd_.assign(static_cast<std::size_t>(na) * nodes_, 0.0);
   kernel_step_ = std::exp(-1.0 / (options_.kernel_sigma_bins * options_.kernel_sigma_bins));
   pixel_index_.assign(static_cast<std::size_t>(taps_), 0);
   pixel_weight_.assign(static_cast<std::size_t>(taps_), Scalar(0));
@@ -111,20 +135,27 @@ void RdRenderer<Scalar>::prepare(const Eigen::Vector3d& velocity) {
   const double inv_var = 1.0 / (sigma * sigma);
   const double inv_bin = 1.0 / grid_.velocity_bin_mps;
   for (int a = 0; a < na; ++a) {
-    const double vd = -(velocity.x() * cos_[a] + velocity.y() * sin_[a]);
-    const double centre = vd * inv_bin + nd / 2;  // continuous Doppler bin
-    active_[a] = phi_[a] != Scalar(0) && std::isfinite(centre) && std::abs(centre) < 1e7;
-    if (!active_[a]) continue;
-    const long nearest = std::lround(centre);
-    for (int k = 0; k < taps_; ++k) {
-      const long j = nearest - w + k;
-      const double delta = static_cast<double>(j) - centre;  // bins
-      const double kernel = std::exp(-0.5 * delta * delta * inv_var);
-      const std::size_t t = static_cast<std::size_t>(a) * taps_ + k;
-      index_[t] = static_cast<int>(((j % nd) + nd) % nd);
-      weight_[t] = static_cast<Scalar>(phi_[a] * kernel);
-      // d delta / d v_D = -1 / bin, d kernel / d delta = -kernel delta / sigma^2.
-      weight_dv_[t] = static_cast<Scalar>(phi_[a] * kernel * delta * inv_var * inv_bin);
+    bin_active_[a] = 0;
+    for (int q = 0; q < nodes_; ++q) {
+      const std::size_t i = static_cast<std::size_t>(a) * nodes_ + q;
+      const double vd = -(velocity.x() * cos_[i] + velocity.y() * sin_[a] + velocity.z() * node_sin_[q]);
+      double centre = vd * inv_bin + nd / 2;  // continuous Doppler bin
+      active_[i] = node_phi_[i] != Scalar(0) && std::isfinite(centre) && std::abs(centre) < 1e7;
+      // An inactive node keeps its taps with zero weight: an azimuth bin's taps are one run.
+      if (!active_[i]) centre = 0;
+      const long nearest = std::lround(centre);
+      const double phi = active_[i] ? static_cast<double>(node_phi_[i]) : 0.0;
+      if (active_[i]) bin_active_[a] = 1;
+      for (int k = 0; k < taps_; ++k) {
+        const long j = nearest - w + k;
+        const double delta = static_cast<double>(j) - centre;  // bins
+        const double kernel = std::exp(-0.5 * delta * delta * inv_var);
+        const std::size_t t = i * taps_ + k;
+        index_[t] = static_cast<int>(((j % nd) + nd) % nd);
+        weight_[t] = static_cast<Scalar>(phi * kernel);
+        // d delta / d v_D = -1 / bin, d kernel / d delta = -kernel delta / sigma^2.
+        weight_dv_[t] = static_cast<Scalar>(phi * kernel * delta * inv_var * inv_bin);
+      }
     }
   }
 }
@@ -159,9 +190,9 @@ void RdRenderer<Scalar>::render(const Image<Scalar>& ra, const Eigen::Vector3d& 
     Scalar* out = rd.data() + static_cast<std::ptrdiff_t>(r) * nd;
     for (int a = 0; a < na; ++a) {
       const Scalar x = in[a];
-      if (x == Scalar(0) || !active_[a]) continue;
-      const std::size_t base = static_cast<std::size_t>(a) * taps_;
-      for (int k = 0; k < taps_; ++k) out[index_[base + k]] += x * weight_[base + k];
+      if (x == Scalar(0) || !bin_active_[a]) continue;
+      const std::size_t base = static_cast<std::size_t>(a) * bin_taps_;
+      for (int k = 0; k < bin_taps_; ++k) out[index_[base + k]] += x * weight_[base + k];
     }
   }
 }
@@ -210,25 +241,31 @@ void RdRenderer<Scalar>::backward(const Image<Scalar>& ra, const Eigen::Vector3d
     const Scalar* g = grad_rd.data() + static_cast<std::ptrdiff_t>(r) * nd;
     Scalar* gra = grad_ra != nullptr ? grad_ra->data() + static_cast<std::ptrdiff_t>(r) * na : nullptr;
     for (int a = 0; a < na; ++a) {
-      if (!active_[a]) continue;
-      const std::size_t base = static_cast<std::size_t>(a) * taps_;
-      Scalar sum = 0, sum_dv = 0;
-      for (int k = 0; k < taps_; ++k) {
-        const Scalar gk = g[index_[base + k]];
-        sum += gk * weight_[base + k];
-        sum_dv += gk * weight_dv_[base + k];
+      if (!bin_active_[a]) continue;
+      Scalar sum = 0;
+      for (int q = 0; q < nodes_; ++q) {
+        const std::size_t i = static_cast<std::size_t>(a) * nodes_ + q, base = i * taps_;
+        Scalar sum_dv = 0;
+        for (int k = 0; k < taps_; ++k) {
+          const Scalar gk = g[index_[base + k]];
+          sum += gk * weight_[base + k];
+          sum_dv += gk * weight_dv_[base + k];
+        }
+        grad_vd_[i] += static_cast<double>(in[a] * sum_dv);
       }
       if (gra != nullptr) gra[a] += sum;
-      grad_vd_[a] += static_cast<double>(in[a] * sum_dv);
     }
   }
   if (grad_velocity != nullptr) {
-    for (int a = 0; a < na; ++a) {
-      if (!active_[a]) continue;
-      // v_D = -(v_x cos + v_y sin).
-      grad_velocity->x() -= grad_vd_[a] * cos_[a];
-      grad_velocity->y() -= grad_vd_[a] * sin_[a];
-    }
+    for (int a = 0; a < na; ++a)
+      for (int q = 0; q < nodes_; ++q) {
+        const std::size_t i = static_cast<std::size_t>(a) * nodes_ + q;
+        if (!active_[i]) continue;
+        // v_D = -(v_x cos + v_y sin(theta) + v_z sin(elevation)).
+        grad_velocity->x() -= grad_vd_[i] * cos_[i];
+        grad_velocity->y() -= grad_vd_[i] * sin_[a];
+        grad_velocity->z() -= grad_vd_[i] * node_sin_[q];
+      }
   }
 }
 

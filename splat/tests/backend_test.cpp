@@ -144,12 +144,14 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
       "  range_falloff_exponent: 4\n"
+      "  rd_elevation_sigma_sin: 0.156\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n");
   CHECK(o.mapping_keyframes == 7);
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
   CHECK(o.range_falloff_exponent == 4);
+  CHECK(o.rd_elevation_sigma_sin == 0.156);
   CHECK(o.elevation_gain_sigma_sin == BackendOptions{}.elevation_gain_sigma_sin);
   CHECK(o.lr_pose_translation == BackendOptions{}.lr_pose_translation);
   CHECK(o.loop.search_m == 1.5);
@@ -197,6 +199,10 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
   fails_on("backend: {range_falloff_exponent: 9}\n", "range_falloff_exponent");
+  fails_on("backend: {rd_elevation_sigma_sin: 0.5}\n", "rd_elevation_sigma_sin");
+  BackendOptions wide_beam;
+  wide_beam.rd_elevation_sigma_sin = 0.7;
+  CHECK_THROWS_AS(validate(wide_beam), rsrio::ConfigError);
   BackendOptions no_query;
   no_query.loop.max_query_points = 0;
   CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 #include <random>
+#include <utility>
 
 #include "rsrio/splat/ra_renderer.hpp"
 #include "rsrio/splat/rd_renderer.hpp"
@@ -39,6 +40,17 @@ PixelDirections<double> random_directions(std::mt19937_64& rng, const RadarImage
       d.x(r, a) = std::sqrt(std::max(0.0, 1 - s * s - w * w));
     }
   return d;
+}
+
+// The RD image's Doppler centroid (m/s) over all its range bins.
+double doppler_centroid(const RadarImageGrid& grid, const Image<double>& rd) {
+  double sum = 0, moment = 0;
+  for (int r = 0; r < grid.range_bins; ++r)
+    for (int j = 0; j < grid.doppler_bins; ++j) {
+      sum += rd(r, j);
+      moment += rd(r, j) * grid.doppler_mps(j);
+    }
+  return moment / sum;
 }
 
 void check_rd_gradients(const RdRenderOptions& options, const Eigen::Vector3d& velocity, std::uint64_t seed,
@@ -85,12 +97,12 @@ void check_rd_gradients(const RdRenderOptions& options, const Eigen::Vector3d& v
         velocity[c], 1e-6);
   const double err_v = relative_error(to_vector(grad_v), nv);
   std::printf("RD gradcheck (window %d, v = %.2f %.2f %.2f, %s): d/dRA %.2e d/dv %.2e\n", options.window_bins,
-              velocity.x(), velocity.y(), velocity.z(), with_directions ? "pixel directions" : "elevation 0", err_ra,
+              velocity.x(), velocity.y(), velocity.z(), with_directions ? "pixel directions" : options.elevation_sigma_sin > 0 ? "elevation beam" : "elevation 0", err_ra,
               err_v);
   CHECK(err_ra < 1e-3);
   CHECK(err_v < 1e-3);
-  // At elevation 0 v_z cannot matter; with directions above and below the radar it does.
-  if (with_directions)
+  // At elevation 0 v_z cannot matter; with returns above and below the radar it does.
+  if (with_directions || options.elevation_sigma_sin > 0)
     CHECK(std::abs(grad_v.z()) > 1e-3 * grad_v.norm());
   else
     CHECK(grad_v.z() == 0.0);
@@ -117,6 +129,66 @@ TEST_CASE("RD gradients match central differences", "[splat][rd]") {
   RdRenderOptions lobe;
   lobe.kernel_sigma_bins = 0.61;
   check_rd_gradients(lobe, Eigen::Vector3d(0.3131, 0.1717, -0.05), 5, true);
+  // Marginalised over the elevation beam (three elevation nodes an azimuth bin).
+  RdRenderOptions beam = wide;
+  beam.elevation_sigma_sin = 0.156;
+  check_rd_gradients(beam, Eigen::Vector3d(0.4, -0.25, 0.1), 6);
+  RdRenderOptions beam_lobe = lobe;
+  beam_lobe.elevation_sigma_sin = 0.3;  // the outer nodes leave the widest azimuths no direction
+  check_rd_gradients(beam_lobe, Eigen::Vector3d(0.3131, 0.1717, -0.05), 7);
+}
+
+TEST_CASE("RD over the elevation beam is the weighted sum of renderings at three elevations", "[splat][rd]") {
+  // Independent of the marginalised path: each Gauss-Hermite node as explicit pixel directions
+  // (sqrt(cos^2 el - u^2), u, sin el), rendered by the per-pixel path and summed with weights
+  // 1/6, 2/3, 1/6; directions that do not exist (|u| > cos el) left out as the renderer does.
+  std::mt19937_64 rng(8);
+  const RadarImageGrid grid = small_grid();
+  RdRenderOptions o;
+  o.kernel_sigma_bins = 0.61;
+  o.elevation_sigma_sin = 0.3;
+  RdRenderer<double> beam(grid, o);
+  RdRenderOptions flat_options = o;
+  flat_options.elevation_sigma_sin = 0;
+  RdRenderer<double> per_pixel(grid, flat_options);
+  const Image<double> ra = random_image(rng, grid.range_bins, grid.azimuth_bins, 0.1, 1.0);
+  const Eigen::Vector3d v(0.45, -0.2, 0.08);
+  const double e = std::sqrt(3.0) * o.elevation_sigma_sin;
+  Image<double> expected = Image<double>::Zero(grid.range_bins, grid.doppler_bins), part, rd;
+  int missing = 0;
+  for (const auto& [sin_el, weight] : {std::pair{-e, 1.0 / 6}, std::pair{0.0, 2.0 / 3}, std::pair{e, 1.0 / 6}}) {
+    PixelDirections<double> d;
+    for (Image<double>* m : {&d.x, &d.y, &d.z, &d.weight}) m->setZero(grid.range_bins, grid.azimuth_bins);
+    Image<double> node_ra = ra;
+    for (int r = 0; r < grid.range_bins; ++r)
+      for (int a = 0; a < grid.azimuth_bins; ++a) {
+        const double u = std::clamp(grid.azimuth_sin(a), -1.0, 1.0), forward2 = 1 - sin_el * sin_el - u * u;
+        if (forward2 < 0) {
+          node_ra(r, a) = 0;  // no such direction
+          missing += r == 0;
+          continue;
+        }
+        d.x(r, a) = std::sqrt(forward2);
+        d.y(r, a) = u;
+        d.z(r, a) = sin_el;
+      }
+    per_pixel.render(node_ra, v, part, &d);
+    expected += weight * part;
+  }
+  beam.render(ra, v, rd);
+  CHECK(missing > 0);  // the widest azimuths have no direction at the outer elevations
+  CHECK((rd - expected).cwiseAbs().maxCoeff() <= 1e-12 * expected.cwiseAbs().maxCoeff());
+  // The beam's returns close in more slowly than elevation 0's: the Doppler centroid of forward
+  // motion is -v * E[sqrt(cos^2 el - u^2)], not -v * sqrt(1 - u^2).
+  Image<double> rd0;
+  per_pixel.render(ra, Eigen::Vector3d(0.6, 0, 0), rd0);
+  beam.render(ra, Eigen::Vector3d(0.6, 0, 0), rd);
+  const double flat_centroid = doppler_centroid(grid, rd0), beam_centroid = doppler_centroid(grid, rd);
+  INFO("Doppler centroid at elevation 0: " << flat_centroid << " m/s, over the beam: " << beam_centroid);
+  CHECK(beam_centroid > flat_centroid + 0.005);
+  RdRenderOptions bad = o;
+  bad.elevation_sigma_sin = -0.1;
+  CHECK_THROWS_AS(RdRenderer<double>(grid, bad), std::invalid_argument);
 }
 
 TEST_CASE("RD with the pixels' own directions at elevation 0 is the per-azimuth rendering", "[splat][rd]") {
@@ -193,13 +265,7 @@ TEST_CASE("RD from the Gaussians' directions: a return above the radar closes in
   auto centroid = [&](const PixelDirections<double>* d) {
     Image<double> rd;
     rd_renderer.render(ra, v, rd, d);
-    double sum = 0, moment = 0;
-    for (int r = 0; r < grid.range_bins; ++r)
-      for (int j = 0; j < grid.doppler_bins; ++j) {
-        sum += rd(r, j);
-        moment += rd(r, j) * grid.doppler_mps(j);
-      }
-    return moment / sum;
+    return doppler_centroid(grid, rd);
   };
   const double expected = -n.dot(v);  // -0.537 m/s
   INFO("elevation 0: " << centroid(nullptr) << " m/s, with directions: " << centroid(&directions) << " m/s, true "

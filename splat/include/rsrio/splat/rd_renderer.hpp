@@ -9,7 +9,9 @@
 // (v_x > 0) closes in on static points ahead, which therefore approach: v_D(boresight) = -v_x < 0.
 // (The paper writes v_x cos + v_y sin for the scene's velocity relative to the radar; this is the
 // same quantity in the DSP's receding-positive convention, SPEC Sec. 8.) Without pixel
-// directions, pixels are taken at elevation 0, so v_z does not enter. With PixelDirections
+// directions, pixels are taken at elevation 0, so v_z does not enter, or (elevation_sigma_sin)
+// spread over the elevation beam: RD[r][j] = sum_q w_q sum_a ... with the Doppler of a return at
+// elevation el_q, -(v_x sqrt(cos^2 el_q - sin^2 theta_a) + v_y sin theta_a + v_z sin el_q). With PixelDirections
 // (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in each pixel lie) a
 // pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v: returns above and
 // below the radar close in more slowly than cos(theta_a) says (elevation marginalised in the RA
@@ -57,6 +59,13 @@ struct RdRenderOptions {
   int window_bins = 10;            // kernel evaluated on +-window_bins around v_D
   AntennaProfile antenna;
   double gain = 1.0;               // RD scale relative to RA
+  // The spread of the returns' elevations about the radar's plane, sigma of sin(elevation) (the
+  // two-way elevation beam's: sin(beamwidth / (4 sqrt(ln 2))) for a Gaussian beam). 0: every
+  // pixel at elevation 0, the paper's model. > 0: each azimuth bin's Doppler is marginalised over
+  // three elevations (Gauss-Hermite: sin el = 0, +-sqrt(3) sigma, weights 2/3, 1/6, 1/6), whose
+  // returns close in at sqrt(cos^2 el - sin^2 theta) of the forward speed, not cos theta.
+  // Without pixel directions only.
+  double elevation_sigma_sin = 0.0;
 };
 
 /// The kernel's half-width in bins: window_bins, cut at 8 sigma (the kernel is below 1.3e-14 of
@@ -100,13 +109,19 @@ class RdRenderer {
   RdRenderOptions options_;
   int window_ = 0;                   // effective_window(options_)
   int taps_ = 0;                     // 2 window + 1
-  std::vector<double> cos_, sin_;    // per azimuth bin
+  int nodes_ = 1;                    // elevation nodes (1: elevation 0)
+  int bin_taps_ = 0;                 // nodes_ * taps_: an azimuth bin's taps
+  std::vector<double> node_sin_, node_weight_;  // per elevation node: sin(elevation), weight
+  std::vector<double> cos_;          // [azimuth][node] forward part of the direction
+  std::vector<double> sin_;          // per azimuth bin
   std::vector<Scalar> phi_;          // gain * Phi, 0 for invalid bins
-  std::vector<int> index_;           // [azimuth][tap] Doppler bin (wrapped)
-  std::vector<Scalar> weight_;       // [azimuth][tap] gain * Phi * kernel
-  std::vector<Scalar> weight_dv_;    // [azimuth][tap] d weight / d v_D (per m/s)
-  std::vector<char> active_;         // azimuth bin contributes
-  std::vector<double> grad_vd_;      // backward scratch, per azimuth bin
+  std::vector<Scalar> node_phi_;     // [azimuth][node] gain * Phi * node weight (0: no such direction)
+  std::vector<int> index_;           // [azimuth][node][tap] Doppler bin (wrapped)
+  std::vector<Scalar> weight_;       // [azimuth][node][tap] gain * Phi * node weight * kernel
+  std::vector<Scalar> weight_dv_;    // [azimuth][node][tap] d weight / d v_D (per m/s)
+  std::vector<char> active_;         // [azimuth][node] contributes
+  std::vector<char> bin_active_;     // azimuth bin: any node contributes
+  std::vector<double> grad_vd_;      // backward scratch, [azimuth][node]
   double kernel_step_ = 0;           // exp(-1 / sigma^2): the taps' recurrence
   std::vector<int> pixel_index_;     // one pixel's taps (with directions)
   std::vector<Scalar> pixel_weight_, pixel_weight_dv_;
