@@ -3,6 +3,7 @@
 //   rsrio-eval --gt GT.tum --est EST.tum [--align se3|se2|none] [--plot OUT.png]
 //   rsrio-eval --table | --table-json | --ablation [--data DIR] [--scenarios DIR] [--sequences 1,2,...] [--config FILE] [--reuse]
 //   rsrio-eval --ablation --variants full,noba,... (only these rows; names as the output directories)
+//   rsrio-eval --table | --ablation ... --repeatable
 //
 // --table reproduces the paper's Table II for the five shipped scenarios (scenarios/seq1..seq5):
 // it makes each recording with rsrio-sim when DIR/<scenario>.mcap is missing, replays it with
@@ -12,6 +13,9 @@
 // --ablation replays each sequence once per variant of the paper's Tables III and IV (into
 // DIR/<scenario>_ablation_<variant>) and prints their APE averaged over the sequences; --variants
 // replays only some of them (a whole ablation of the five sequences takes hours).
+// --repeatable replays with rsrio-replay --repeatable (the backend without its stages' time
+// budgets: the same figures on any machine and load, slower than real time) into directories
+// named with _repeatable at the end, apart from the real-time replays.
 // rsrio-sim and rsrio-replay are taken from the directory of this program.
 #include <sys/wait.h>
 #include <unistd.h>
@@ -101,7 +105,7 @@ struct Variant {
 };
 constexpr Variant kFull{"replay", "full (r_BA = 10 m, RA + RD, priors, level floor, loops)", "ba", "",
                         "[0.93 / 3.03]  (no prior, z from its frontend)"};
-constexpr std::array<Variant, 14> kAblations{{
+constexpr std::array<Variant, 15> kAblations{{
     {"ablation_noba", "no BA (pose refinement + mapping only)", "ba", "  ba: {max_iterations: 0}\n", "[2.83 / 8.23]"},
     {"ablation_r1", "r_BA = 1 m", "ba", "  ba_radius_m: 1.0\n", "[3.12 / 7.98]"},
     {"ablation_r5", "r_BA = 5 m", "ba", "  ba_radius_m: 5.0\n", "[1.07 / 3.24]"},
@@ -118,6 +122,9 @@ constexpr std::array<Variant, 14> kAblations{{
      "[-]  not in the paper"},
     {"ablation_rddirections", "RD Doppler from the Gaussians' directions (rd_gaussian_directions: true)", "ba",
      "  rd_gaussian_directions: true\n", "[-]  the paper's per-Gaussian -r^T v"},
+    // The shipped scenarios' two-way elevation beam (30 deg): sin(30 deg / (4 sqrt(ln 2))).
+    {"ablation_rdbeam", "RD Doppler over the elevation beam (rd_elevation_sigma_sin: 0.157)", "ba",
+     "  rd_elevation_sigma_sin: 0.157\n", "[-]  not in the paper"},
     {"ablation_noloop", "without revisit alignment (loop_closure: false)", "ba", "  loop_closure: false\n",
      "[-]  the paper has none"},
     {"ablation_nobackend", "backend off (frontend only)", "none", "", "[10.99 / 18.42]"},
@@ -131,8 +138,12 @@ constexpr std::array<Variant, 14> kAblations{{
 
 class Tables {
  public:
-  Tables(std::string data_dir, std::string scenario_dir, std::string config, bool reuse)
-      : data_(std::move(data_dir)), scenarios_(std::move(scenario_dir)), config_(std::move(config)), reuse_(reuse) {
+  Tables(std::string data_dir, std::string scenario_dir, std::string config, bool reuse, bool repeatable)
+      : data_(std::move(data_dir)),
+        scenarios_(std::move(scenario_dir)),
+        config_(std::move(config)),
+        reuse_(reuse),
+        repeatable_(repeatable) {
     const fs::path bin = fs::read_symlink("/proc/self/exe").parent_path();
     sim_ = (bin / "rsrio-sim").string();
     replay_ = (bin / "rsrio-replay").string();
@@ -154,7 +165,7 @@ class Tables {
     Run r;
     const std::string name = seq.scenario;
     const fs::path rec = fs::path(data_) / (name + ".mcap");
-    const fs::path out = fs::path(data_) / (name + "_" + v.key);
+    const fs::path out = fs::path(data_) / (name + "_" + v.key + (repeatable_ ? "_repeatable" : ""));
     const std::string log = (fs::path(data_) / (name + ".log")).string();
     if (!fs::exists(rec)) {
       const std::string part = rec.string() + ".part";
@@ -179,6 +190,8 @@ class Tables {
       }
       if (!config.empty()) args.insert(args.end(), {"--config", config});
       if (v.replay_option != nullptr) args.emplace_back(v.replay_option);
+      // Only the backend has time budgets; the frontend alone is repeatable as it is.
+      if (repeatable_ && std::string(v.backend) == "ba") args.emplace_back("--repeatable");
       if (run(args, log) != 0) {
         r.error = "rsrio-replay failed (see " + log + ")";
         return r;
@@ -223,7 +236,7 @@ class Tables {
     return fs::exists(out / "estimate.tum") && t.str().find("\"backend\": \"" + backend + "\"") != std::string::npos;
   }
   std::string data_, scenarios_, config_, base_, sim_, replay_;
-  bool reuse_;
+  bool reuse_, repeatable_;
 };
 
 std::vector<std::size_t> selected(const std::string& sequences) {
@@ -382,7 +395,7 @@ void print_stats(const char* name, const rsrio::eval::ErrorStats& s) {
 int main(int argc, char** argv) {
   std::string gt, est, align = "se3", plot, delta = "1.0", max_dt = "0.01";
   std::string data_dir = "build/data", scenario_dir = "scenarios", sequences, variants;
-  bool do_table = false, table_json = false, reuse = false, do_ablation = false;
+  bool do_table = false, table_json = false, reuse = false, do_ablation = false, repeatable = false;
   rsrio::Cli cli("rsrio-eval", "Absolute and relative pose error of an estimate against ground truth (TUM files),\n"
                                "computed as evo_ape / evo_rpe do, with an optional trajectory plot.");
   cli.option("--gt", "GT.tum", "ground truth trajectory (TUM: t x y z qx qy qz qw)", &gt)
@@ -400,11 +413,15 @@ int main(int argc, char** argv) {
             &do_ablation)
       .option("--variants", "LIST", "--ablation: only these rows, e.g. full,noba,r1 (default all; names as the "
               "output directories' ablation_<name>, full for the full method)", &variants)
-      .flag("--reuse", "--table: keep existing replay outputs instead of replaying", &reuse);
+      .flag("--reuse", "--table: keep existing replay outputs instead of replaying", &reuse)
+      .flag("--repeatable", "--table, --ablation: replay without the backend's time budgets (the same figures on any "
+            "machine; slower than real time), into <scenario>_<row>_repeatable", &repeatable);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   std::vector<const Variant*> rows;
   try {
     if (!variants.empty() && !do_ablation) throw std::invalid_argument("--variants needs --ablation");
+    if (repeatable && !(do_table || table_json || do_ablation))
+      throw std::invalid_argument("--repeatable needs --table, --table-json or --ablation");
     rows = selected_variants(variants);
   } catch (const std::invalid_argument& ex) {
     std::cerr << "rsrio-eval: " << ex.what() << "\n(see rsrio-eval --help)\n";
@@ -412,7 +429,7 @@ int main(int argc, char** argv) {
   }
   if (do_table || table_json || do_ablation) {
     try {
-      Tables tables(data_dir, scenario_dir, cli.config_path(), reuse);
+      Tables tables(data_dir, scenario_dir, cli.config_path(), reuse, repeatable);
       return do_ablation ? ablation(tables, sequences, rows) : table(tables, sequences, table_json);
     } catch (const std::exception& ex) {
       std::cerr << "rsrio-eval: error: " << ex.what() << "\n";

@@ -2,8 +2,12 @@
 // as fast as the machine allows and writes what it estimated.
 //
 //   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba [--pipelined]
-//                [--backend-poses frontend|constant-velocity]]
+//                [--backend-poses frontend|constant-velocity] [--repeatable]]
 //
+// --repeatable: the backend's stages without their time budgets (each runs its iterations or to
+// convergence, however long that takes), so that the same recording and options give the same
+// trajectory to the last digit: what the budgets stop depends on the machine and its load, and
+// the backend's result with it. Sequential only; not real time.
 // --backend-poses constant-velocity is the paper's `no frontend` ablation: the backend's keyframes
 // start from its own constant-velocity prediction instead of the frontend's motion (the frontend
 // still runs, for frontend.tum).
@@ -330,7 +334,7 @@ struct PendingFrame {
 
 int main(int argc, char** argv) {
   std::string input, out_dir, backend_name = "none", pictures_text = "3", backend_poses = "frontend";
-  bool quiet = false, pipelined = false;
+  bool quiet = false, pipelined = false, repeatable = false;
   rsrio::Cli cli(kProgram,
                  "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
                  "frontend.tum, estimate.tum (with --backend ba also estimate_final.tum), ground_truth.tum\n"
@@ -351,6 +355,10 @@ int main(int argc, char** argv) {
             "with --backend ba: the backend on its own thread, as in rsriod (the real-time factor on 2 cores; "
             "corrections are used a keyframe or two later)",
             &pipelined)
+      .flag("--repeatable",
+            "with --backend ba, sequential: the backend's stages without their time budgets, so that a replay "
+            "gives the same trajectory on any machine and load (slower than real time)",
+            &repeatable)
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   rsrio::rio::OdometryOptions options;
@@ -389,6 +397,14 @@ int main(int argc, char** argv) {
     std::cerr << kProgram << ": error: --pipelined runs the backend on its own thread: it needs --backend ba\n";
     return rsrio::kExitUsage;
   }
+  if (repeatable && (backend_name != "ba" || pipelined)) {
+    std::cerr << kProgram << ": error: --repeatable needs --backend ba, sequential (on its own thread the backend "
+                 "takes keyframes as it is ready for them)\n";
+    return rsrio::kExitUsage;
+  }
+  if (repeatable)
+    for (rsrio::splat::StageOptions* stage : {&backend_options.pose, &backend_options.mapping, &backend_options.ba})
+      stage->time_budget_s = 0;
   // The backend renders on the DSP's grids with the DSP's point spread, from the frontend's extrinsic.
   rsrio::splat::take_frontend_options(backend_options, options);
   {
@@ -576,6 +592,7 @@ int main(int argc, char** argv) {
        << "  \"backend\": " << json_string(backend_name) << ",\n"
        << "  \"pipelined\": " << (pipelined && ba != nullptr ? "true" : "false") << ",\n"
        << "  \"backend_poses\": " << json_string(ba != nullptr ? backend_poses : "none") << ",\n"
+       << "  \"repeatable\": " << (repeatable ? "true" : "false") << ",\n"
        << "  \"waited_for_backend_s\": " << (ba != nullptr ? ba->waited_s : 0.0) << ",\n"
        << "  \"frames\": " << frames << ",\n"
        << "  \"states\": " << states << ",\n"

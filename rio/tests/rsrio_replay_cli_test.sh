@@ -74,6 +74,27 @@ check "backend poses unknown" 2 "--backend-poses" "$replay" --input "$tmp/rec.mc
 check "backend poses without ba" 2 "needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend-poses constant-velocity
 check "backend poses pipelined" 2 "sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --pipelined \
   --backend-poses constant-velocity
+# --repeatable: the stages' time budgets (here a microsecond, so that every stage would stop on
+# them) are lifted, and two replays give the same trajectories to the last digit.
+cp "$tmp/tiny_ba.yaml" "$tmp/tiny_budget.yaml"
+printf '  pose: {time_budget_s: 0.000001}\n  mapping: {time_budget_s: 0.000001}\n  ba: {time_budget_s: 0.000001}\n' >> "$tmp/tiny_budget.yaml"
+check "budgeted" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/budget" --config "$tmp/tiny_budget.yaml" \
+  --backend ba --pictures 0
+grep -q '"pose_budget_stops": [1-9]' "$tmp/budget/stats.json" && ok "budgeted: the stages stop on their budgets" \
+  || bad "budgeted: no budget stop in stats.json"
+for run in rep1 rep2; do
+  check "repeatable $run" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/$run" --config "$tmp/tiny_budget.yaml" \
+    --backend ba --pictures 0 --repeatable
+done
+grep -q '"repeatable": true' "$tmp/rep1/stats.json" && ok "stats: repeatable" || bad "stats.json lacks repeatable: true"
+grep -q '"pose_budget_stops": 0' "$tmp/rep1/stats.json" && grep -q '"ba_budget_stops": 0' "$tmp/rep1/stats.json" \
+  && ok "repeatable: no budget stops" || bad "repeatable: budget stops in stats.json"
+cmp -s "$tmp/rep1/estimate.tum" "$tmp/rep2/estimate.tum" && cmp -s "$tmp/rep1/estimate_final.tum" "$tmp/rep2/estimate_final.tum" \
+  && ok "repeatable: two replays, the same trajectories" || bad "repeatable: two replays differ"
+cmp -s "$tmp/rep1/estimate.tum" "$tmp/rep1/frontend.tum" && bad "repeatable: the backend changed no pose" || ok "repeatable: poses corrected"
+check "repeatable without ba" 2 "--repeatable needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --repeatable
+check "repeatable pipelined" 2 "--repeatable needs --backend ba, sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" \
+  --backend ba --pipelined --repeatable
 # rsrio-eval --ablation on a recording put where it looks for sequence 1: only the rows asked for
 # are replayed and printed (each into its own directory), an unknown row is a usage error.
 mkdir -p "$tmp/data" && cp "$tmp/rec.mcap" "$tmp/data/seq1_meeting_room.mcap"
@@ -82,7 +103,13 @@ check "ablation rows" 0 "backend off (frontend only)" "$eval" --ablation --seque
 [ -s "$tmp/data/seq1_meeting_room_ablation_nobackend/estimate.tum" ] && ok "ablation: the row's replay" || bad "ablation: no replay of the row"
 ls -d "$tmp/data"/seq1_meeting_room_* | grep -qv '_ablation_nobackend$' && bad "ablation: rows not asked for were replayed" \
   || ok "ablation: no other row replayed"
+check "ablation repeatable" 0 "no BA" "$eval" --ablation --sequences 1 --variants noba --repeatable \
+  --data "$tmp/data" --config "$tmp/tiny.yaml"
+grep -q '"repeatable": true' "$tmp/data/seq1_meeting_room_ablation_noba_repeatable/stats.json" \
+  && ok "ablation: the repeatable row in its own directory" || bad "ablation: no repeatable replay of the row"
 check "ablation unknown row" 2 "unknown variant 'r7' (one of: full, noba, r1" "$eval" --ablation --variants noba,r7 --data "$tmp/data"
+check "repeatable without a table" 2 "--repeatable needs --table" "$eval" --gt "$tmp/out/ground_truth.tum" \
+  --est "$tmp/out/estimate.tum" --repeatable
 check "variants without ablation" 2 "--variants needs --ablation" "$eval" --table --variants noba --data "$tmp/data"
 check "backend unknown" 2 "--backend" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend foo
 check "no input" 2 "--input and --out are required" "$replay" --out "$tmp/x"
