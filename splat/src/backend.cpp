@@ -289,6 +289,8 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (!(o.rd_kernel_sigma_bins >= 0)) fail("rd_kernel_sigma_bins", "a number >= 0 (0: the DSP's Doppler lobe)");
   if (!(o.rd_elevation_sigma_sin >= 0 && o.rd_elevation_sigma_sin < 0.5))
     fail("rd_elevation_sigma_sin", "a number in [0, 0.5) (0: elevation 0)");
+  if (o.rd_elevation_sigma_sin > 0 && o.rd_gaussian_directions)
+    fail("rd_elevation_sigma_sin", "0 with rd_gaussian_directions (the Gaussians' directions carry the elevation)");
   for (const auto* s : {&o.pose, &o.mapping, &o.ba}) {
     const std::string name = s == &o.pose ? "pose" : s == &o.mapping ? "mapping" : "ba";
     if (s->max_iterations < 0) fail(name + ".max_iterations", "an integer >= 0");

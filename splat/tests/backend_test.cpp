@@ -200,6 +200,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
   fails_on("backend: {range_falloff_exponent: 9}\n", "range_falloff_exponent");
   fails_on("backend: {rd_elevation_sigma_sin: 0.5}\n", "rd_elevation_sigma_sin");
+  fails_on("backend: {rd_elevation_sigma_sin: 0.1, rd_gaussian_directions: true}\n", "rd_elevation_sigma_sin");
   BackendOptions wide_beam;
   wide_beam.rd_elevation_sigma_sin = 0.7;
   CHECK_THROWS_AS(validate(wide_beam), rsrio::ConfigError);
