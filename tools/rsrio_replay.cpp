@@ -398,8 +398,8 @@ int main(int argc, char** argv) {
     return rsrio::kExitUsage;
   }
   if (repeatable && (backend_name != "ba" || pipelined)) {
-    std::cerr << kProgram << ": error: --repeatable needs --backend ba, sequential (on its own thread the backend "
-                 "takes keyframes as it is ready for them)\n";
+    std::cerr << kProgram << ": error: --repeatable needs --backend ba, sequential (on its own thread the backend's "
+                 "corrections reach the frames when it is done, which depends on timing)\n";
     return rsrio::kExitUsage;
   }
   if (repeatable)
