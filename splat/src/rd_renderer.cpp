@@ -47,13 +47,14 @@ RdRenderer<Scalar>::RdRenderer(const RadarImageGrid& grid, const RdRenderOptions
   taps_ = 2 * window_ + 1;
   // Elevation nodes: 3-point Gauss-Hermite in sin(elevation) (exact for the beam's mean and
   // variance), or elevation 0 alone.
+  std::vector<double> node_weight;
   if (options_.elevation_sigma_sin > 0) {
     const double e = std::sqrt(3.0) * options_.elevation_sigma_sin;
     node_sin_ = {-e, 0.0, e};
-    node_weight_ = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
+    node_weight = {1.0 / 6.0, 2.0 / 3.0, 1.0 / 6.0};
   } else {
     node_sin_ = {0.0};
-    node_weight_ = {1.0};
+    node_weight = {1.0};
   }
   nodes_ = static_cast<int>(node_sin_.size());
   bin_taps_ = nodes_ * taps_;
@@ -73,7 +74,7 @@ RdRenderer<Scalar>::RdRenderer(const RadarImageGrid& grid, const RdRenderOptions
       const std::size_t i = static_cast<std::size_t>(a) * nodes_ + q;
       if (!valid || forward2 < 0) continue;
       cos_[i] = std::sqrt(forward2);
-      node_phi_[i] = static_cast<Scalar>(static_cast<double>(phi_[a]) * node_weight_[q]);
+      node_phi_[i] = static_cast<Scalar>(static_cast<double>(phi_[a]) * node_weight[q]);
     }
   }
   index_.assign(static_cast<std::size_t>(na) * bin_taps_, 0);

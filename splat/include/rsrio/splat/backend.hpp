@@ -155,7 +155,9 @@ struct BackendOptions {
   // elevation 0 (RdRenderOptions::elevation_sigma_sin: sigma of sin(elevation) of the two-way
   // beam; 0: elevation 0, the paper's model). rsrio-splat-bench: 0.993 x the true speed fits best
   // with the simulator's beam (0.157), as with the scatterers' own directions (0.992), against
-  // 0.978 at elevation 0. Not with rd_gaussian_directions, whose directions carry the elevation.
+  // 0.978 at elevation 0. Off by default: in the pipeline it made every walk 0.1-0.4 % longer
+  // and sequences 3-5 worse at the end of the run (README). Not with rd_gaussian_directions,
+  // whose directions carry the elevation (a configuration error).
   double rd_elevation_sigma_sin = 0;
   std::string psf_range_window = "hann";  // the DSP's windows (dsp.range_window / angle_window)
   std::string psf_angle_window = "none";

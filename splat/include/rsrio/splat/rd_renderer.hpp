@@ -10,9 +10,9 @@
 // (The paper writes v_x cos + v_y sin for the scene's velocity relative to the radar; this is the
 // same quantity in the DSP's receding-positive convention, SPEC Sec. 8.) Without pixel
 // directions, pixels are taken at elevation 0, so v_z does not enter, or (elevation_sigma_sin)
-// spread over the elevation beam: RD[r][j] = sum_q w_q sum_a ... with the Doppler of a return at
-// elevation el_q, -(v_x sqrt(cos^2 el_q - sin^2 theta_a) + v_y sin theta_a + v_z sin el_q). With PixelDirections
-// (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in each pixel lie) a
+// spread over the elevation beam: RD[r][j] = sum_q w_q sum_a ... with the Doppler of a return
+// at elevation el_q, -(v_x sqrt(cos^2 el_q - sin^2 theta_a) + v_y sin theta_a + v_z sin el_q).
+// With PixelDirections (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in each pixel lie) a
 // pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v: returns above and
 // below the radar close in more slowly than cos(theta_a) says (elevation marginalised in the RA
 // image), which at elevation 0 biases the velocity that fits the measured RD low (measured on
@@ -111,7 +111,7 @@ class RdRenderer {
   int taps_ = 0;                     // 2 window + 1
   int nodes_ = 1;                    // elevation nodes (1: elevation 0)
   int bin_taps_ = 0;                 // nodes_ * taps_: an azimuth bin's taps
-  std::vector<double> node_sin_, node_weight_;  // per elevation node: sin(elevation), weight
+  std::vector<double> node_sin_;     // per elevation node: sin(elevation)
   std::vector<double> cos_;          // [azimuth][node] forward part of the direction
   std::vector<double> sin_;          // per azimuth bin
   std::vector<Scalar> phi_;          // gain * Phi, 0 for invalid bins
