@@ -29,6 +29,10 @@ check "missing key"   2 "key 'radar.preset'" "$tmp/missing.yaml"
 check "not YAML"      2 "$tmp/notyaml.yaml: expected a YAML file" "$tmp/notyaml.yaml"
 check "missing file"  2 "$tmp/absent.yaml: expected an existing file" "$tmp/absent.yaml"
 check "ramp too short" 2 "key 'radar.chirp.ramp_end_time_us'" "$tmp/physics.yaml"
+# A bad command line: one line naming what is wrong, then the hint (common/src/cli.cpp, every program).
+check "unknown option" 2 "rsrio-config: error: unknown option --bogus" --bogus
+check "usage hint"     2 "(see rsrio-config --help)" --bogus
+check "no file"        2 "rsrio-config: error: missing FILE" ""
 # Hand-computed: xwr1843 dR = c / (2 * 29.982e12 * 256 / 5e6) = 0.0976473 m, Rmax = 24.9977 m,
 # vmax = lambda / (4 * 3 * 70 us) = 4.57867 m/s, vres = 0.143084 m/s.
 check "xwr1843 range res" 0 "range_resolution_m: 0.0976473" config/radar/xwr1843.yaml

@@ -12,10 +12,7 @@ int main(int argc, char** argv) {
   cli.positional("FILE", "the options file to check (same as --config FILE)", &file, false);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   if (file.empty()) file = cli.config_path();
-  if (file.empty()) {
-    std::cerr << "rsrio-config: missing FILE\n(see rsrio-config --help)\n";
-    return rsrio::kExitUsage;
-  }
+  if (file.empty()) return cli.usage_error("missing FILE");
   try {
     rsrio::OptionsFile options(file);
     rsrio::OptionsNode root = options.root();

@@ -42,11 +42,6 @@ std::atomic<bool> g_stop{false};
 static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
 extern "C" void on_signal(int) { g_stop.store(true); }
 
-int usage_error(const std::string& message) {
-  std::cerr << kProgram << ": error: " << message << "\n(see " << kProgram << " --help)\n";
-  return rsrio::kExitUsage;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -88,37 +83,37 @@ int main(int argc, char** argv) {
   if (auto rc = cli.parse(argc, argv)) return *rc;
   if (auto rc = rsrio::load_program_config(cli, kProgram, [](rsrio::OptionsNode&) {})) return *rc;
 
-  if (scenario_path.empty()) return usage_error("--scenario FILE is required");
+  if (scenario_path.empty()) return cli.usage_error("--scenario FILE is required");
   rsrio::EmulatorOptions options;
   auto& f = options.faults;
-  if (!parse_probability(loss_text, f.loss)) return usage_error("--loss: expected a probability in [0, 1], got '" + loss_text + "'");
+  if (!parse_probability(loss_text, f.loss)) return cli.usage_error("--loss: expected a probability in [0, 1], got '" + loss_text + "'");
   if (!parse_probability(reorder_text, f.reorder))
-    return usage_error("--reorder: expected a probability in [0, 1], got '" + reorder_text + "'");
+    return cli.usage_error("--reorder: expected a probability in [0, 1], got '" + reorder_text + "'");
   if (!parse_probability(duplicate_text, f.duplicate))
-    return usage_error("--duplicate: expected a probability in [0, 1], got '" + duplicate_text + "'");
+    return cli.usage_error("--duplicate: expected a probability in [0, 1], got '" + duplicate_text + "'");
   std::uint64_t stall = 0, stall_every = 0, threads = 0;
   if (!parse_u64(stall_text, stall) || stall > 60000)
-    return usage_error("--stall: expected milliseconds in [0, 60000], got '" + stall_text + "'");
+    return cli.usage_error("--stall: expected milliseconds in [0, 60000], got '" + stall_text + "'");
   if (!parse_u64(stall_every_text, stall_every) || stall_every < 1 || stall_every > 1000000)
-    return usage_error("--stall-every: expected a number of frames >= 1, got '" + stall_every_text + "'");
-  if (!parse_u64(seed_text, f.seed)) return usage_error("--seed: expected a non-negative integer, got '" + seed_text + "'");
+    return cli.usage_error("--stall-every: expected a number of frames >= 1, got '" + stall_every_text + "'");
+  if (!parse_u64(seed_text, f.seed)) return cli.usage_error("--seed: expected a non-negative integer, got '" + seed_text + "'");
   if (!parse_u64(threads_text, threads) || threads < 1 || threads > 64)
-    return usage_error("--threads: expected an integer in [1, 64], got '" + threads_text + "'");
+    return cli.usage_error("--threads: expected an integer in [1, 64], got '" + threads_text + "'");
   std::uint64_t domain = 0;
   if (!parse_u64(domain_text, domain) || domain > 232)
-    return usage_error("--domain: expected an integer in [0, 232], got '" + domain_text + "'");
+    return cli.usage_error("--domain: expected an integer in [0, 232], got '" + domain_text + "'");
   if (!imu_topic.empty() && imu_topic.front() != '/')
-    return usage_error("--imu-topic: expected a ROS 2 topic name starting with '/', got '" + imu_topic + "'");
+    return cli.usage_error("--imu-topic: expected a ROS 2 topic name starting with '/', got '" + imu_topic + "'");
   if ((!imu_topic.empty() || !ground_truth_path.empty()) && !once)
-    return usage_error("--imu-topic and --ground-truth need --once (a repeated scenario would jump back in time)");
+    return cli.usage_error("--imu-topic and --ground-truth need --once (a repeated scenario would jump back in time)");
   double imu_gap_start = 0, imu_gap_s = 0;
   if (!imu_gap_text.empty()) {
     const auto colon = imu_gap_text.find(':');
     if (colon == std::string::npos || !parse_double(imu_gap_text.substr(0, colon), imu_gap_start) ||
         !parse_double(imu_gap_text.substr(colon + 1), imu_gap_s) || imu_gap_start < 0 || imu_gap_s <= 0)
-      return usage_error("--imu-gap: expected START:SECONDS (non-negative start, positive length), got '" +
+      return cli.usage_error("--imu-gap: expected START:SECONDS (non-negative start, positive length), got '" +
                          imu_gap_text + "'");
-    if (imu_topic.empty()) return usage_error("--imu-gap needs --imu-topic");
+    if (imu_topic.empty()) return cli.usage_error("--imu-gap needs --imu-topic");
   }
   f.stall_ms = static_cast<int>(stall);
   f.stall_every_frames = static_cast<int>(stall_every);
@@ -126,7 +121,7 @@ int main(int argc, char** argv) {
     options.board = rsrio::Endpoint::parse(address_text, rsrio::dca1000::kConfigPort);
     options.host_data = rsrio::Endpoint::parse(host_data_text, rsrio::dca1000::kDataPort);
   } catch (const std::invalid_argument& e) {
-    return usage_error(std::string("--address/--host-data: ") + e.what());
+    return cli.usage_error(std::string("--address/--host-data: ") + e.what());
   }
 
   rsrio::sim::Scenario scenario;
@@ -137,7 +132,7 @@ int main(int argc, char** argv) {
     return rsrio::kExitUsage;
   }
   if (scenario.radar.capture.format != "dca1000")
-    return usage_error(scenario_path + ": its radar is the '" + scenario.radar.preset +
+    return cli.usage_error(scenario_path + ": its radar is the '" + scenario.radar.preset +
                        "' preset (capture format '" + scenario.radar.capture.format +
                        "'): a DCA1000 carries one xWR1843 and streams only the dca1000 format; use an xwr1843 "
                        "scenario (cascade recordings are made with rsrio-sim --radar mmwcas)");
@@ -151,7 +146,7 @@ int main(int argc, char** argv) {
   rsrio::sim::RadarSimulator& radar = sim->radar();
   const std::uint64_t scenario_frames = radar.frames_until(sim->duration());
   if (g_stop.load()) return 0;
-  if (scenario_frames == 0) return usage_error(scenario_path + ": the scenario completes no radar frame");
+  if (scenario_frames == 0) return cli.usage_error(scenario_path + ": the scenario completes no radar frame");
   const auto period = std::chrono::nanoseconds(static_cast<std::int64_t>(scenario.radar.frame_period_ms * 1e6));
 
   std::unique_ptr<rsrio::Dca1000Emulator> emulator;

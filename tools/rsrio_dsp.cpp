@@ -298,19 +298,15 @@ int main(int argc, char** argv) {
       .flag("--rad", "also write the RAD cube as rad.npy", &write_rad);
   if (auto rc = cli.parse(argc, argv)) return *rc;
 
-  auto usage = [](const std::string& msg) {
-    std::cerr << kProgram << ": " << msg << "\n(see " << kProgram << " --help)\n";
-    return rsrio::kExitUsage;
-  };
-  if (input.empty() == npy.empty()) return usage("give exactly one of --input REC.mcap and --npy FILE");
-  if (out_dir.empty()) return usage("missing --out DIR");
+  if (input.empty() == npy.empty()) return cli.usage_error("give exactly one of --input REC.mcap and --npy FILE");
+  if (out_dir.empty()) return cli.usage_error("missing --out DIR");
   long frame_index = 0;
   if (!frame_text.empty()) {
-    if (input.empty()) return usage("--frame goes with --input");
+    if (input.empty()) return cli.usage_error("--frame goes with --input");
     char* end = nullptr;
     frame_index = std::strtol(frame_text.c_str(), &end, 10);
     if (!end || *end || frame_index < 0)
-      return usage("--frame: expected a non-negative integer, got '" + frame_text + "'");
+      return cli.usage_error("--frame: expected a non-negative integer, got '" + frame_text + "'");
   }
 
   std::optional<rsrio::RadarConfig> radar;
@@ -328,11 +324,11 @@ int main(int argc, char** argv) {
     try {
       radar = rsrio::radar_preset(radar_name);
     } catch (const std::invalid_argument&) {
-      return usage("--radar: expected one of xwr1843 mmwcas, got '" + radar_name + "'");
+      return cli.usage_error("--radar: expected one of xwr1843 mmwcas, got '" + radar_name + "'");
     }
   }
   if (!npy.empty() && !radar)
-    return usage("--npy needs a radar configuration: --radar PRESET or a `radar:` section in --config FILE");
+    return cli.usage_error("--npy needs a radar configuration: --radar PRESET or a `radar:` section in --config FILE");
 
   try {
     rsrio::AdcCube cube;

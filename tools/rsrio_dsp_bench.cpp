@@ -128,14 +128,9 @@ int main(int argc, char** argv) {
               &planning);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   const int frames = std::atoi(frames_text.c_str());
-  if (frames < 1) {
-    std::cerr << "rsrio-dsp-bench: --frames: expected a positive integer\n";
-    return rsrio::kExitUsage;
-  }
-  if (planning != "estimate" && planning != "measure") {
-    std::cerr << "rsrio-dsp-bench: --planning: expected estimate or measure\n";
-    return rsrio::kExitUsage;
-  }
+  if (frames < 1) return cli.usage_error("--frames: expected a positive integer");
+  if (planning != "estimate" && planning != "measure")
+    return cli.usage_error("--planning: expected estimate or measure");
   std::printf("rsrio-dsp-bench: median over %d frames, FFTW %s, 1 thread\n", frames, planning.c_str());
   std::printf("%-8s %-26s %12s %12s %7s %6s %7s\n", "preset", "loops x virt, FFT sizes", "DSP ms/frame",
               "bare FFT ms", "ratio", "goal", "points");

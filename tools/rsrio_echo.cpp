@@ -122,8 +122,7 @@ int main(int argc, char** argv) {
     duration = std::stod(duration_s);
     dds_options.domain_id = std::stoi(domain);
   } catch (const std::exception&) {
-    std::cerr << "rsrio-echo: error: --count, --duration and --domain take numbers\n";
-    return rsrio::kExitUsage;
+    return cli.usage_error("--count, --duration and --domain take numbers");
   }
   dds_options.loopback_only = !all_interfaces;
   dds_options.participant_name = "rsrio-echo";

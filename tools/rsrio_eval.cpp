@@ -424,8 +424,7 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("--repeatable needs --table, --table-json or --ablation");
     rows = selected_variants(variants);
   } catch (const std::invalid_argument& ex) {
-    std::cerr << "rsrio-eval: " << ex.what() << "\n(see rsrio-eval --help)\n";
-    return rsrio::kExitUsage;
+    return cli.usage_error(ex.what());
   }
   if (do_table || table_json || do_ablation) {
     try {
@@ -436,10 +435,7 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  if (gt.empty() || est.empty()) {
-    std::cerr << "rsrio-eval: --gt and --est are required\n(see rsrio-eval --help)\n";
-    return rsrio::kExitUsage;
-  }
+  if (gt.empty() || est.empty()) return cli.usage_error("--gt and --est are required");
   try {
     const auto alignment = rsrio::eval::parse_alignment(align);
     const double d = std::stod(delta), dt = std::stod(max_dt);

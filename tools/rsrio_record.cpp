@@ -50,11 +50,6 @@ std::atomic<bool> g_stop{false};
 static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
 extern "C" void on_signal(int) { g_stop.store(true); }
 
-int usage_error(const std::string& message) {
-  std::cerr << kProgram << ": error: " << message << "\n(see " << kProgram << " --help)\n";
-  return rsrio::kExitUsage;
-}
-
 // The `dca1000` section of --config.
 struct CaptureOptions {
   std::string host;  // this host's address on the board's network; "" = 127.0.0.1 for a loopback board, else TI's 192.168.33.30
@@ -155,13 +150,13 @@ int main(int argc, char** argv) {
     return *rc;
 
   if (source.rfind(kSourceScheme, 0) != 0)
-    return usage_error("--source: expected dca1000://ADDR[:PORT], got '" + source + "'");
-  if (out_path.empty()) return usage_error("--out REC.mcap is required");
+    return cli.usage_error("--source: expected dca1000://ADDR[:PORT], got '" + source + "'");
+  if (out_path.empty()) return cli.usage_error("--out REC.mcap is required");
   double duration = 0;
   if (!duration_text.empty() && (!rsrio::tools::parse_double(duration_text, duration) || duration <= 0))
-    return usage_error("--duration: expected a positive number of seconds, got '" + duration_text + "'");
+    return cli.usage_error("--duration: expected a positive number of seconds, got '" + duration_text + "'");
   if (options.radar.capture.format != "dca1000")
-    return usage_error("radar preset '" + options.radar.preset + "' is captured as '" + options.radar.capture.format +
+    return cli.usage_error("radar preset '" + options.radar.preset + "' is captured as '" + options.radar.capture.format +
                        "', not through a DCA1000");
   rsrio::Dca1000Options driver_options;
   try {
@@ -171,7 +166,7 @@ int main(int argc, char** argv) {
     driver_options.host_config = rsrio::Endpoint::parse(host, rsrio::dca1000::kConfigPort);
     driver_options.host_data = {driver_options.host_config.ip, rsrio::dca1000::kDataPort};
   } catch (const std::invalid_argument& e) {
-    return usage_error(std::string("--source / dca1000.host: ") + e.what());
+    return cli.usage_error(std::string("--source / dca1000.host: ") + e.what());
   }
   driver_options.receive_buffer_bytes = options.capture.receive_buffer_bytes;
   driver_options.command_timeout = std::chrono::milliseconds(options.capture.command_timeout_ms);

@@ -368,40 +368,24 @@ int main(int argc, char** argv) {
         if (root.has("backend")) backend_options = rsrio::splat::load_backend_options(root.child("backend"));
       }))
     return *rc;
-  if (input.empty() || out_dir.empty()) {
-    std::cerr << kProgram << ": error: --input and --out are required\n(see " << kProgram << " --help)\n";
-    return rsrio::kExitUsage;
-  }
+  if (input.empty() || out_dir.empty()) return cli.usage_error("--input and --out are required");
   std::uint64_t pictures = 0;
-  if (!rsrio::tools::parse_u64(pictures_text, pictures) || pictures > 1000) {
-    std::cerr << kProgram << ": error: --pictures: expected a number of keyframes in [0, 1000], got '" << pictures_text
-              << "'\n";
-    return rsrio::kExitUsage;
-  }
-  if (backend_name != "none" && backend_name != "ba") {
-    std::cerr << kProgram << ": error: --backend: expected none or ba, got '" << backend_name << "'\n";
-    return rsrio::kExitUsage;
-  }
-  if (backend_poses != "frontend" && backend_poses != "constant-velocity") {
-    std::cerr << kProgram << ": error: --backend-poses: expected frontend or constant-velocity, got '" << backend_poses
-              << "'\n";
-    return rsrio::kExitUsage;
-  }
+  if (!rsrio::tools::parse_u64(pictures_text, pictures) || pictures > 1000)
+    return cli.usage_error("--pictures: expected a number of keyframes in [0, 1000], got '" + pictures_text + "'");
+  if (backend_name != "none" && backend_name != "ba")
+    return cli.usage_error("--backend: expected none or ba, got '" + backend_name + "'");
+  if (backend_poses != "frontend" && backend_poses != "constant-velocity")
+    return cli.usage_error("--backend-poses: expected frontend or constant-velocity, got '" + backend_poses + "'");
   const bool alone = backend_poses == "constant-velocity";
-  if (alone && (backend_name != "ba" || pipelined)) {
-    std::cerr << kProgram << ": error: --backend-poses constant-velocity needs --backend ba, sequential (the prediction "
-                 "is the backend's own state)\n";
-    return rsrio::kExitUsage;
-  }
-  if (pipelined && backend_name != "ba") {
-    std::cerr << kProgram << ": error: --pipelined runs the backend on its own thread: it needs --backend ba\n";
-    return rsrio::kExitUsage;
-  }
-  if (repeatable && (backend_name != "ba" || pipelined)) {
-    std::cerr << kProgram << ": error: --repeatable needs --backend ba, sequential (on its own thread the backend's "
-                 "corrections reach the frames when it is done, which depends on timing)\n";
-    return rsrio::kExitUsage;
-  }
+  if (alone && (backend_name != "ba" || pipelined))
+    return cli.usage_error(
+        "--backend-poses constant-velocity needs --backend ba, sequential (the prediction is the backend's own state)");
+  if (pipelined && backend_name != "ba")
+    return cli.usage_error("--pipelined runs the backend on its own thread: it needs --backend ba");
+  if (repeatable && (backend_name != "ba" || pipelined))
+    return cli.usage_error(
+        "--repeatable needs --backend ba, sequential (on its own thread the backend's corrections reach the frames "
+        "when it is done, which depends on timing)");
   if (repeatable)
     for (rsrio::splat::StageOptions* stage : {&backend_options.pose, &backend_options.mapping, &backend_options.ba})
       stage->time_budget_s = 0;

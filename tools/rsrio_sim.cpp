@@ -35,11 +35,6 @@ using rsrio::tools::parse_u64;
 
 constexpr const char* kProgram = "rsrio-sim";
 
-int usage_error(const std::string& message) {
-  std::cerr << kProgram << ": error: " << message << "\n(see " << kProgram << " --help)\n";
-  return rsrio::kExitUsage;
-}
-
 // Scenario seconds -> nanoseconds since the epoch.
 std::uint64_t epoch_ns(double start_unix_s, double t) {
   return static_cast<std::uint64_t>(std::llround(start_unix_s * 1e9) + std::llround(t * 1e9));
@@ -116,16 +111,16 @@ int main(int argc, char** argv) {
   if (auto rc = cli.parse(argc, argv)) return *rc;
   if (auto rc = rsrio::load_program_config(cli, kProgram, [](rsrio::OptionsNode&) {})) return *rc;
 
-  if (scenario_path.empty()) return usage_error("--scenario FILE is required");
-  if (out_path.empty()) return usage_error("--out REC.mcap is required");
+  if (scenario_path.empty()) return cli.usage_error("--scenario FILE is required");
+  if (out_path.empty()) return cli.usage_error("--out REC.mcap is required");
   double seconds = 0;
   if (!seconds_text.empty() && (!parse_double(seconds_text, seconds) || seconds <= 0))
-    return usage_error("--seconds: expected a positive number of seconds, got '" + seconds_text + "'");
+    return cli.usage_error("--seconds: expected a positive number of seconds, got '" + seconds_text + "'");
   std::uint64_t seed = 0, threads = 0;
   if (!seed_text.empty() && !parse_u64(seed_text, seed))
-    return usage_error("--seed: expected a non-negative integer, got '" + seed_text + "'");
+    return cli.usage_error("--seed: expected a non-negative integer, got '" + seed_text + "'");
   if (!parse_u64(threads_text, threads) || threads < 1 || threads > 64)
-    return usage_error("--threads: expected an integer in [1, 64], got '" + threads_text + "'");
+    return cli.usage_error("--threads: expected an integer in [1, 64], got '" + threads_text + "'");
 
   rsrio::sim::Scenario scenario;
   try {
@@ -144,9 +139,9 @@ int main(int argc, char** argv) {
     } catch (const std::invalid_argument&) {
       std::string names;
       for (auto p : rsrio::radar_presets()) names += " " + std::string(p);
-      return usage_error("--radar: expected one of" + names + ", got '" + radar_text + "'");
+      return cli.usage_error("--radar: expected one of" + names + ", got '" + radar_text + "'");
     } catch (const rsrio::ConfigError& e) {
-      return usage_error(std::string(e.what()));
+      return cli.usage_error(std::string(e.what()));
     }
   }
 

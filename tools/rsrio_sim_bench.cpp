@@ -114,13 +114,9 @@ int main(int argc, char** argv) {
     threads = std::stoi(threads_text);
     frames = std::stoi(frames_text);
   } catch (const std::exception&) {
-    std::cerr << "rsrio-sim-bench: error: --threads and --frames take whole numbers\n";
-    return rsrio::kExitUsage;
+    return cli.usage_error("--threads and --frames take whole numbers");
   }
-  if (threads < 1 || frames < 1) {
-    std::cerr << "rsrio-sim-bench: error: --threads and --frames must be at least 1\n";
-    return rsrio::kExitUsage;
-  }
+  if (threads < 1 || frames < 1) return cli.usage_error("--threads and --frames must be at least 1");
   std::printf("rsrio-sim-bench: radar frames on %d thread(s), %d frames per row; noise, leakage and IF filters on\n",
               threads, frames);
   std::printf("%-26s %9s %11s %10s %9s %11s\n", "preset / scenario", "visible", "sim ms/frm", "encode ms", "frames/s",

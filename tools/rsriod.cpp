@@ -70,23 +70,16 @@ int main(int argc, char** argv) {
   try {
     if (!domain.empty()) daemon.domain_id = std::stoi(domain);
   } catch (const std::exception&) {
-    std::cerr << "rsriod: error: --domain: expected an integer, got '" << domain << "'\n";
-    return rsrio::kExitUsage;
+    return cli.usage_error("--domain: expected an integer, got '" + domain + "'");
   }
-  if (daemon.radar_source.rfind("dca1000://", 0) != 0 && daemon.radar_source.rfind("recording:", 0) != 0) {
-    std::cerr << "rsriod: error: --source: expected dca1000://BOARD[:HOST] or recording:PATH, got '"
-              << daemon.radar_source << "'\n";
-    return rsrio::kExitUsage;
-  }
+  if (daemon.radar_source.rfind("dca1000://", 0) != 0 && daemon.radar_source.rfind("recording:", 0) != 0)
+    return cli.usage_error("--source: expected dca1000://BOARD[:HOST] or recording:PATH, got '" + daemon.radar_source +
+                           "'");
   if (!backend_name.empty()) daemon.backend = backend_name;
-  if (daemon.backend != "none" && daemon.backend != "ba") {
-    std::cerr << "rsriod: error: --backend: expected none or ba, got '" << daemon.backend << "'\n";
-    return rsrio::kExitUsage;
-  }
-  if (daemon.imu_source != "dds" && daemon.imu_source != "recording") {
-    std::cerr << "rsriod: error: --imu-source: expected dds or recording\n";
-    return rsrio::kExitUsage;
-  }
+  if (daemon.backend != "none" && daemon.backend != "ba")
+    return cli.usage_error("--backend: expected none or ba, got '" + daemon.backend + "'");
+  if (daemon.imu_source != "dds" && daemon.imu_source != "recording")
+    return cli.usage_error("--imu-source: expected dds or recording");
 
   // Signals are taken synchronously by the main thread; every thread made later inherits the mask.
   sigset_t signals;

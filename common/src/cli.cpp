@@ -46,11 +46,12 @@ std::string Cli::help() const {
   return s.str();
 }
 
+int Cli::usage_error(const std::string& message) const {
+  std::cerr << program_ << ": error: " << message << "\n(see " << program_ << " --help)\n";
+  return kExitUsage;
+}
+
 std::optional<int> Cli::parse(int argc, const char* const* argv) {
-  auto usage_error = [&](const std::string& msg) {
-    std::cerr << program_ << ": " << msg << "\n(see " << program_ << " --help)\n";
-    return std::optional<int>(kExitUsage);
-  };
   std::size_t next_pos = 0;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];

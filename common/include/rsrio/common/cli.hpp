@@ -35,6 +35,10 @@ class Cli {
 
   std::string help() const;
 
+  /// For a bad command line found after parse(): prints "PROGRAM: error: MESSAGE" and the hint to
+  /// --help on stderr, returns kExitUsage.
+  int usage_error(const std::string& message) const;
+
  private:
   struct Opt {
     std::string name, metavar, help;
