@@ -122,7 +122,8 @@ constexpr std::array<Variant, 15> kAblations{{
      "[-]  not in the paper"},
     {"ablation_rddirections", "RD Doppler from the Gaussians' directions (rd_gaussian_directions: true)", "ba",
      "  rd_gaussian_directions: true\n", "[-]  the paper's per-Gaussian -r^T v"},
-    // The shipped scenarios' two-way elevation beam (30 deg): sin(30 deg / (4 sqrt(ln 2))).
+    // The shipped scenarios' two-way elevation beam (30 deg), rounded:
+    // rsrio::sim::RadarModelOptions::elevation_power_sigma_sin() (0.1566).
     {"ablation_rdbeam", "RD Doppler over the elevation beam (rd_elevation_sigma_sin: 0.157)", "ba",
      "  rd_elevation_sigma_sin: 0.157\n", "[-]  not in the paper"},
     {"ablation_noloop", "without revisit alignment (loop_closure: false)", "ba", "  loop_closure: false\n",

@@ -216,9 +216,6 @@ struct RadarSimulator::Impl {
     near_occluders.clear();
     near_cylinders.clear();
     if (options.occlusion) scene.nearby(radar.position, range_cut, near_occluders, near_cylinders);
-    const double bw_az = options.azimuth_beamwidth_deg * kPi / 180;
-    const double bw_el = options.elevation_beamwidth_deg * kPi / 180;
-    const double four_ln2 = 4 * std::log(2.0);
     // A scatterer whose coherent SNR over a whole frame would be below -30 dB changes nothing.
     const double min_amp = 0.03 * options.noise_rms_lsb / std::sqrt(static_cast<double>(derived.samples_per_frame));
     n_visible = 0;
@@ -238,7 +235,7 @@ struct RadarSimulator::Impl {
       }
       if (rcs <= 0) return;
       const double theta = std::atan2(ur.y(), ur.x()), phi = std::asin(std::clamp(ur.z(), -1.0, 1.0));
-      const double pattern = std::exp(-four_ln2 * ((theta / bw_az) * (theta / bw_az) + (phi / bw_el) * (phi / bw_el)));
+      const double pattern = options.beam_pattern(theta, phi);
       const double rdot = u.dot(s.velocity - radar.velocity);
       const double tau = 2 * r / kC, tau_dot = 2 * rdot / kC;
       const std::complex<double> h = if_response(slope * tau * (1 - tau_dot) + fc * tau_dot);
@@ -362,6 +359,15 @@ struct RadarSimulator::Impl {
     pool.run(job);
   }
 };
+
+double RadarModelOptions::beam_pattern(double theta, double phi) const {
+  const double a = theta / (azimuth_beamwidth_deg * kPi / 180), e = phi / (elevation_beamwidth_deg * kPi / 180);
+  return std::exp(-4 * std::log(2.0) * (a * a + e * e));
+}
+
+double RadarModelOptions::elevation_power_sigma_sin() const {
+  return std::sin(elevation_beamwidth_deg * kPi / 180 / (4 * std::sqrt(std::log(2.0))));
+}
 
 RadarSimulator::RadarSimulator(const RadarConfig& config, const RadarModelOptions& options, const Scene& scene,
                                const Motion& body, const Mount& radar_mount, std::uint64_t seed, int threads)

@@ -189,6 +189,24 @@ TEST_CASE("sim: Doppler and TDM phases give positive Doppler for a receding targ
   CHECK(per_loop > 0);  // increasing phase: positive frequency under a forward FFT
 }
 
+TEST_CASE("sim: the beam's power is half each way at half a beamwidth, and its elevation sigma fits it", "[radar][signal]") {
+  RadarModelOptions m;
+  m.azimuth_beamwidth_deg = 120;
+  m.elevation_beamwidth_deg = 30;
+  const double deg = kPi / 180;
+  // The pattern is on the amplitude, both ways: power 1/2 * 1/2 at half a beamwidth.
+  CHECK(std::abs(std::pow(m.beam_pattern(60 * deg, 0), 2) - 0.25) < 1e-12);
+  CHECK(std::abs(std::pow(m.beam_pattern(0, -15 * deg), 2) - 0.25) < 1e-12);
+  CHECK(m.beam_pattern(0, 0) == 1.0);
+  // What the renderers take: the two-way power over elevation as exp(-w^2 / (2 s^2)) in
+  // w = sin(elevation); at w = s it is exp(-1/2).
+  const double s = m.elevation_power_sigma_sin();
+  CHECK(std::abs(s - 0.1566) < 1e-4);
+  CHECK(std::abs(std::pow(m.beam_pattern(0, std::asin(s)), 2) - std::exp(-0.5)) < 1e-12);
+  m.elevation_beamwidth_deg = 60;
+  CHECK(m.elevation_power_sigma_sin() > 1.9 * s);
+}
+
 TEST_CASE("sim: the wideband array effect stays inside the documented bound", "[radar][signal]") {
   // The simulator takes the spatial phase at fc. The exact path difference (p_tx + p_rx) . u also
   // enters the beat term S tau t: compare with the fully wideband textbook formula.

@@ -67,10 +67,9 @@ double median_ms(int reps, const std::function<void()>& f) {
   return t[t.size() / 2];
 }
 
-// The shipped scenarios' elevation beam (30 deg one-way half-power, the simulator's pattern on the
-// amplitude) as the renderer's elevation gain: the two-way power's sigma in sin(elevation),
-// sin(30 deg / (4 sqrt(ln 2))).
-const double kSimulatorElevationGain = std::sin(30.0 * std::numbers::pi / 180.0 / (4 * std::sqrt(std::log(2.0))));
+// The simulator's default elevation beam (30 deg, which the shipped scenarios keep) as the
+// renderers' elevation gain and beam: the two-way power's sigma in sin(elevation).
+const double kSimulatorElevationGain = rsrio::sim::RadarModelOptions{}.elevation_power_sigma_sin();
 
 GaussianScene make_scene(int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -207,7 +206,7 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
   // directions per pixel are used.
   RaRenderOptions ro;
   ro.range_falloff_exponent = 4;
-  ro.elevation_gain_sigma_sin = kSimulatorElevationGain;
+  ro.elevation_gain_sigma_sin = stretch.scenario.radar_model.elevation_power_sigma_sin();
   const RaRenderer<float> ra_renderer(grid, ro);
   RdRenderOptions rdo;
   rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
@@ -237,7 +236,7 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
     calibrated.gain = rd.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum());
     RdRenderer<float> renderer(grid, calibrated);
     RdRenderOptions beam_options = calibrated;
-    beam_options.elevation_sigma_sin = kSimulatorElevationGain;
+    beam_options.elevation_sigma_sin = stretch.scenario.radar_model.elevation_power_sigma_sin();
     RdRenderer<float> beam(grid, beam_options);
     lo.compression.reference = percentile_reference(r.rd, 99.0);
     ImageLoss<float> loss(lo);
@@ -301,13 +300,10 @@ PoseFit fit_ra_pose(const char* scenario_path, double t0, double t1, int stride,
     if (beam.whole_beam) {
       // Every scatterer with the simulator's two-way beam (its pattern on the amplitude, squared)
       // at the true pose in its return; the yaw and shifts scanned change it by little.
-      const auto& model = stretch.scenario.radar_model;
-      const double bw_az = model.azimuth_beamwidth_deg * std::numbers::pi / 180;
-      const double bw_el = model.elevation_beamwidth_deg * std::numbers::pi / 180;
       for (const rsrio::sim::Scatterer& p : stretch.sim->scene().static_scatterers()) {
         const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
         const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
-        const double pattern = std::exp(-4 * std::log(2.0) * ((az / bw_az) * (az / bw_az) + (el / bw_el) * (el / bw_el)));
+        const double pattern = stretch.scenario.radar_model.beam_pattern(az, el);
         whole_beam.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),
                        std::log(std::max(1e-30, p.rcs_m2 * pattern * pattern)));
       }

@@ -105,16 +105,13 @@ TEST_CASE("Gaussians at the simulator's scatterers render the RA image the DSP m
   const Frame& f = s.frames.back();
   const RadarImageGrid grid = RadarImageGrid::from_config(s.sim->radar().config());
   // The scene as Gaussians: point-like (2 cm), return = RCS; the renderer applies 1/R^4 and the
-  // elevation beam (the simulator's one-way half-power beamwidth bw, its pattern applied to the
-  // amplitude: two-way power exp(-8 ln 2 (phi / bw)^2), sigma bw / (4 sqrt(ln 2)) = 9 deg for
-  // 30 deg, 0.156 in sin(elevation)).
+  // simulator's two-way elevation beam (0.157 in sin(elevation) for its 30 deg).
   GaussianScene scene;
   for (const rsrio::sim::Scatterer& p : s.sim->scene().static_scatterers())
     scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
   RaRenderOptions ro;
   ro.range_falloff_exponent = 4;
-  ro.elevation_gain_sigma_sin =
-      std::sin(s.scenario.radar_model.elevation_beamwidth_deg * kDeg / (4 * std::sqrt(std::log(2.0))));
+  ro.elevation_gain_sigma_sin = s.scenario.radar_model.elevation_power_sigma_sin();
   const RaRenderer<float> renderer(grid, ro);
   const Eigen::Isometry3d world_T_radar = f.world_T_body * body_T_radar(s.scenario);
   const Image<float> measured = Eigen::Map<const Image<float>>(f.ra.data(), grid.range_bins, grid.azimuth_bins);

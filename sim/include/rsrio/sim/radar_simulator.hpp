@@ -112,6 +112,15 @@ struct RadarModelOptions {
   double min_range_m = 0.1;             // nearer scatterers are dropped (far field breaks down)
   bool occlusion = true;                // walls, box faces and pillars hide what is behind them
   double first_frame_s = 0.1;           // start of frame 0
+
+  /// The antenna pattern on a return's amplitude, transmit and receive together, at azimuth theta
+  /// and elevation phi (radians, radar frame): exp(-4 ln 2 ((theta / bw_az)^2 + (phi / bw_el)^2)),
+  /// so that each way's power is half at half a beamwidth.
+  double beam_pattern(double theta, double phi) const;
+  /// The two-way power pattern over elevation, exp(-8 ln 2 (phi / bw_el)^2), as a Gaussian in
+  /// sin(elevation): sin(bw_el / (4 sqrt(ln 2))), 0.157 for 30 deg. What the RA renderer's
+  /// elevation gain and the RD renderer's elevation beam are for this radar.
+  double elevation_power_sigma_sin() const;
 };
 
 /// What one frame contained.
