@@ -12,13 +12,6 @@ using namespace rsrio::splat::test;
 
 namespace {
 
-Image<double> random_image(std::mt19937_64& rng, int rows, int cols, double lo, double hi) {
-  std::uniform_real_distribution<double> u(lo, hi);
-  Image<double> m(rows, cols);
-  for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = u(rng);
-  return m;
-}
-
 // Finite differences of f at a sample of pixels of x against grad.
 double check_image_gradient(std::mt19937_64& rng, Image<double>& x, const Image<double>& grad,
                             const std::function<double(const Image<double>&)>& f, double h, int samples) {

@@ -18,13 +18,6 @@ using namespace rsrio::splat::test;
 
 namespace {
 
-Image<double> random_image(std::mt19937_64& rng, int rows, int cols, double lo, double hi) {
-  std::uniform_real_distribution<double> u(lo, hi);
-  Image<double> m(rows, cols);
-  for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = u(rng);
-  return m;
-}
-
 // Pixel directions of returns up to +-40 deg above and below each pixel's azimuth (unit vectors
 // with the pixel's sin-theta), as RaRenderer::render_directions makes them.
 PixelDirections<double> random_directions(std::mt19937_64& rng, const RadarImageGrid& grid) {

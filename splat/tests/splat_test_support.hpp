@@ -1,4 +1,4 @@
-// Helpers shared by the splat tests: small grids, random scenes and poses, finite differences.
+// Helpers shared by the splat tests: small grids, random images, scenes and poses, finite differences.
 #pragma once
 
 #include <algorithm>
@@ -30,6 +30,14 @@ inline RadarImageGrid small_grid() {
   g.range_psf_sigma_bins = 0.6;
   g.azimuth_psf_sigma_sin = 0.376 / (16 * 0.5);
   return g;
+}
+
+/// A rows x cols image of values uniform in [lo, hi).
+inline Image<double> random_image(std::mt19937_64& rng, int rows, int cols, double lo, double hi) {
+  std::uniform_real_distribution<double> u(lo, hi);
+  Image<double> m(rows, cols);
+  for (Eigen::Index k = 0; k < m.size(); ++k) m.data()[k] = u(rng);
+  return m;
 }
 
 inline Eigen::Isometry3d random_pose(std::mt19937_64& rng, double translation, double angle) {
