@@ -22,6 +22,7 @@ DspOptions load_dsp_options(OptionsNode& node) {
   node.read("calibration", o.calibration);
   node.read_choice("fft_planning", o.fft_planning, {"estimate", "measure"});
   node.read("interpolate", o.interpolate);
+  node.read("doppler_own_peak", o.doppler_own_peak);
   node.read("max_angle_peaks", o.max_angle_peaks, {1, 16});
   node.read("angle_peak_db", o.angle_peak_db, {0.0, 60.0});
 
@@ -90,6 +91,7 @@ void print(std::ostream& out, const DspOptions& o) {
       << "  calibration: " << b(o.calibration) << "\n"
       << "  fft_planning: " << o.fft_planning << "\n"
       << "  interpolate: " << b(o.interpolate) << "\n"
+      << "  doppler_own_peak: " << b(o.doppler_own_peak) << "\n"
       << "  max_angle_peaks: " << o.max_angle_peaks << "\n"
       << "  angle_peak_db: " << o.angle_peak_db << "\n"
       << "  cfar:\n"

@@ -67,6 +67,7 @@ struct DspProcessor::Impl {
   RadarDerived der;
   DspGrids grids;
   int L = 0, S = 0, R = 0, V = 0, Ns = 0, Nr = 0, Nd = 0, Na = 0;
+  int doppler_climb = 0;  // the Doppler window's main lobe, 2 resolution cells, in bins (make_points)
 
   std::vector<cf> range_w;              // [V][Ns]: window / sum * calibration
   std::vector<float> doppler_w;         // [L]: window / sum * (-1)^l
@@ -126,6 +127,7 @@ DspProcessor::Impl::Impl(const RadarConfig& c, const DspOptions& o) : config(c),
   Na = config.angle_fft_size;
   if (L < 1 || S < 1 || R < 1 || Ns < 1 || Na < 1)
     throw std::invalid_argument("DSP: empty radar configuration");
+  doppler_climb = (2 * Nd + L - 1) / L;
   const unsigned flags = fftw_planner_flags(opt.fft_planning);
   const double pi = std::numbers::pi;
   const double dsp_d = der.element_spacing_wavelengths;
@@ -738,23 +740,41 @@ void DspProcessor::Impl::make_points() {
     for (int i = 0; i < npk; ++i) {
       if (pv[i] < pv[0] * rel || !(pv[i] > 0)) break;
       const int a = pk[i];
+      // The point's own Doppler bin: its azimuth peak was found in the detection's Doppler bin d,
+      // but a return at another azimuth of the same range ring reaches bin d from anywhere in the
+      // Doppler window's main lobe (a static scene seen while moving: the Doppler changes with
+      // the angle), and a fit over d - 1, d, d + 1 that is not peaked at d would put it at d.
+      // Climb RAD along Doppler at this azimuth to its maximum, at most the main lobe away.
+      int dp = d;
+      if (opt.doppler_own_peak && Nd > 2)
+        for (int step = 0; step < doppler_climb; ++step) {
+          const float here = rad_at(r, a, dp), up = rad_at(r, a, (dp + 1) % Nd),
+                      down = rad_at(r, a, (dp - 1 + Nd) % Nd);
+          if (up > here && up >= down)
+            dp = (dp + 1) % Nd;
+          else if (down > here)
+            dp = (dp - 1 + Nd) % Nd;
+          else
+            break;
+        }
+      const float peak = rad_at(r, a, dp);
       float da = 0, dr = 0, ddp = 0;
       if (opt.interpolate) {
         if (Na > 2) da = gaussian_offset(rad_at(r, (a - 1 + Na) % Na, d), pv[i], rad_at(r, (a + 1) % Na, d));
-        if (r > 0 && r + 1 < Nr) dr = gaussian_offset(rad_at(r - 1, a, d), pv[i], rad_at(r + 1, a, d));
-        if (Nd > 2) ddp = gaussian_offset(rad_at(r, a, (d - 1 + Nd) % Nd), pv[i], rad_at(r, a, (d + 1) % Nd));
+        if (r > 0 && r + 1 < Nr) dr = gaussian_offset(rad_at(r - 1, a, dp), peak, rad_at(r + 1, a, dp));
+        if (Nd > 2) ddp = gaussian_offset(rad_at(r, a, (dp - 1 + Nd) % Nd), peak, rad_at(r, a, (dp + 1) % Nd));
       }
       DspPoint pt;
       pt.detection = static_cast<int>(j);
-      pt.power = pv[i];
+      pt.power = peak;
       pt.range_bin = static_cast<float>(r) + dr;
-      pt.doppler_bin = static_cast<float>(d) + ddp;
+      pt.doppler_bin = static_cast<float>(dp) + ddp;
       pt.azimuth_bin = static_cast<float>(a) + da;
       pt.range_m = static_cast<float>(pt.range_bin * der.range_bin_size_m);
       pt.doppler_mps = static_cast<float>((pt.doppler_bin - Nd / 2) * der.velocity_bin_size_mps);
       const double uy = std::clamp((pt.azimuth_bin - Na / 2) * grids.azimuth_sin_bin, -1.0, 1.0);
       bool measured = false;
-      double uz = elevation_uz(r, d, uy, measured);
+      double uz = elevation_uz(r, dp, uy, measured);
       pt.elevation_measured = measured;
       const double ux = std::sqrt(std::max(0.0, 1.0 - uy * uy - uz * uz));
       pt.azimuth_deg = static_cast<float>(std::atan2(uy, ux) * rad2deg);
@@ -763,7 +783,7 @@ void DspProcessor::Impl::make_points() {
       pt.y = static_cast<float>(pt.range_m * uy);
       pt.z = static_cast<float>(pt.range_m * uz);
       const double noise_rad = static_cast<double>(det.noise) / V * angle_w2;
-      pt.snr_db = static_cast<float>(10.0 * std::log10(std::max(1e-30, pv[i] / std::max(noise_rad, 1e-30))));
+      pt.snr_db = static_cast<float>(10.0 * std::log10(std::max(1e-30, peak / std::max(noise_rad, 1e-30))));
       points.push_back(pt);
     }
   }

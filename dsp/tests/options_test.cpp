@@ -66,7 +66,7 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
                       "  range_window: blackman\n  doppler_window: hamming\n  angle_window: hann\n"
                       "  dc_removal: false\n  clutter_removal: true\n  tdm_compensation: false\n"
                       "  calibration: false\n  fft_planning: measure\n  interpolate: false\n"
-                      "  max_angle_peaks: 4\n  angle_peak_db: 6.5\n"
+                      "  doppler_own_peak: true\n  max_angle_peaks: 4\n  angle_peak_db: 6.5\n"
                       "  cfar:\n    type: os\n    mode: dual_pass\n    pfa: 1.0e-6\n"
                       "    guard_range: 3\n    train_range: 10\n    guard_doppler: 2\n"
                       "    train_doppler: 6\n    os_rank: 0.6\n    discard_near_bins: 10\n"
@@ -80,6 +80,7 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
   CHECK_FALSE(o.calibration);
   CHECK(o.fft_planning == "measure");
   CHECK_FALSE(o.interpolate);
+  CHECK(o.doppler_own_peak);
   CHECK(o.max_angle_peaks == 4);
   CHECK(o.angle_peak_db == 6.5);
   CHECK(o.cfar.type == "os");

@@ -79,17 +79,25 @@
 // cells either (the window is cut at the region's edges and the threshold designed for the
 // cells that remain). peak_grouping keeps RD local maxima (3 x 3, Doppler circular).
 // Each detection becomes up to max_angle_peaks points: local maxima of RAD[r][d][.] (circular,
-// |sin| <= 1) within angle_peak_db of the strongest. Each point gets, in the radar frame:
-//   range_m     (r + dr) * range bin,  dr from a Gaussian (log-parabolic) fit over RAD, |dr| <= 0.5
-//   doppler_mps (d + dd - N_d/2) * velocity bin (same fit; positive = receding)
+// |sin| <= 1) within angle_peak_db of the strongest. A peak at azimuth bin a is measured in
+// Doppler bin d' = d, or with doppler_own_peak in its own Doppler bin: RAD[r][.][a] climbed from
+// d to its maximum, at most the Doppler window's main lobe (2 resolution cells) away, since a
+// return at another azimuth of the range ring reaches bin d from anywhere in that lobe (without
+// it such a return's Doppler comes out up to a bin off, at d). The range and Doppler fits and the
+// elevation are made at d', the azimuth fit at d where the peak was found (with two returns, the
+// xwr1843's 8-element array's sidelobes moved it more at d'). Each point gets, in the radar frame:
+//   range_m     (r + dr) * range bin,  dr from a Gaussian (log-parabolic) fit over RAD at d',
+//               |dr| <= 0.5
+//   doppler_mps (d' + dd - N_d/2) * velocity bin (same fit; positive = receding)
 //   u_y         (a + da - N_a/2) / (N_a d)
 //   u_z         elevation: where the array has virtual channels above the lowest row at the same
 //               azimuth position as a filled-array element: both rows beamformed to u_y, their
-//               cross products phase-fitted over a u_z grid of step 0.005 (all rows jointly);
+//               cross products (at Doppler bin d') phase-fitted over a u_z grid of step 0.005
+//               (all rows jointly);
 //               otherwise 0 and elevation_measured = false
 //   azimuth_deg = atan2(u_y, u_x), elevation_deg = asin(u_z), u_x = sqrt(1 - u_y^2 - u_z^2)
 //   x, y, z     = range_m * (u_x, u_y, u_z)   (x forward, y left, z up)
-//   snr_db      coherent SNR of the beamformed point: 10 log10( RAD peak /
+//   snr_db      coherent SNR of the beamformed point: 10 log10( RAD[r][d'][a] /
 //               (noise_rd / N_virtual * sum_i w_i^2) ), w = unit-sum angle window, noise_rd the
 //               CFAR's estimate of the mean noise power of an RD cell.
 //
