@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
     if (colon == std::string::npos || !parse_double(imu_gap_text.substr(0, colon), imu_gap_start) ||
         !parse_double(imu_gap_text.substr(colon + 1), imu_gap_s) || imu_gap_start < 0 || imu_gap_s <= 0)
       return cli.usage_error("--imu-gap: expected START:SECONDS (non-negative start, positive length), got '" +
-                         imu_gap_text + "'");
+                             imu_gap_text + "'");
     if (imu_topic.empty()) return cli.usage_error("--imu-gap needs --imu-topic");
   }
   f.stall_ms = static_cast<int>(stall);
@@ -133,9 +133,9 @@ int main(int argc, char** argv) {
   }
   if (scenario.radar.capture.format != "dca1000")
     return cli.usage_error(scenario_path + ": its radar is the '" + scenario.radar.preset +
-                       "' preset (capture format '" + scenario.radar.capture.format +
-                       "'): a DCA1000 carries one xWR1843 and streams only the dca1000 format; use an xwr1843 "
-                       "scenario (cascade recordings are made with rsrio-sim --radar mmwcas)");
+                           "' preset (capture format '" + scenario.radar.capture.format +
+                           "'): a DCA1000 carries one xWR1843 and streams only the dca1000 format; use an xwr1843 "
+                           "scenario (cascade recordings are made with rsrio-sim --radar mmwcas)");
   std::unique_ptr<rsrio::sim::Simulation> sim;
   try {
     sim = std::make_unique<rsrio::sim::Simulation>(scenario, static_cast<int>(threads));

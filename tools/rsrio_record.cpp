@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
     return cli.usage_error("--duration: expected a positive number of seconds, got '" + duration_text + "'");
   if (options.radar.capture.format != "dca1000")
     return cli.usage_error("radar preset '" + options.radar.preset + "' is captured as '" + options.radar.capture.format +
-                       "', not through a DCA1000");
+                           "', not through a DCA1000");
   rsrio::Dca1000Options driver_options;
   try {
     driver_options.board = rsrio::Endpoint::parse(source.substr(std::strlen(kSourceScheme)), rsrio::dca1000::kConfigPort);

@@ -12,11 +12,11 @@
 // directions, pixels are taken at elevation 0, so v_z does not enter, or (elevation_sigma_sin)
 // spread over the elevation beam: RD[r][j] = sum_q w_q sum_a ... with the Doppler of a return
 // at elevation el_q, -(v_x sqrt(cos^2 el_q - sin^2 theta_a) + v_y sin theta_a + v_z sin el_q).
-// With PixelDirections (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in each pixel lie) a
-// pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v: returns above and
-// below the radar close in more slowly than cos(theta_a) says (elevation marginalised in the RA
-// image), which at elevation 0 biases the velocity that fits the measured RD low (measured on
-// the simulated meeting room: README). The directions are constants of render() and backward().
+// With PixelDirections (grid.hpp; RaRenderer::render_directions: where the map's Gaussians in
+// each pixel lie) a pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v:
+// returns above and below the radar close in more slowly than cos(theta_a) says (elevation
+// marginalised in the RA image), which at elevation 0 biases the velocity that fits the
+// measured RD low (measured on the simulated meeting room: README). The directions are constants of render() and backward().
 // sigma = kernel_sigma_bins Doppler bins (paper: 3), the kernel is evaluated over +-window_bins
 // bins around v_D (paper: 10; cut at 8 sigma, effective_window) and wraps around the Doppler axis
 // like the Doppler FFT does. Invalid azimuth bins (|sin| > 1) contribute nothing.
