@@ -16,7 +16,8 @@
 // each pixel lie) a pixel's Doppler is the paper's per-Gaussian one, v_D(r, a) = -d(r, a) . v:
 // returns above and below the radar close in more slowly than cos(theta_a) says (elevation
 // marginalised in the RA image), which at elevation 0 biases the velocity that fits the
-// measured RD low (measured on the simulated meeting room: README). The directions are constants of render() and backward().
+// measured RD low (measured on the simulated meeting room: README). The directions are
+// constants of render() and backward().
 // sigma = kernel_sigma_bins Doppler bins (paper: 3), the kernel is evaluated over +-window_bins
 // bins around v_D (paper: 10; cut at 8 sigma, effective_window) and wraps around the Doppler axis
 // like the Doppler FFT does. Invalid azimuth bins (|sin| > 1) contribute nothing.
