@@ -105,7 +105,7 @@ struct Variant {
 };
 constexpr Variant kFull{"replay", "full (r_BA = 10 m, RA + RD, priors, level floor, loops)", "ba", "",
                         "[0.93 / 3.03]  (no prior, z from its frontend)"};
-constexpr std::array<Variant, 15> kAblations{{
+constexpr std::array<Variant, 16> kAblations{{
     {"ablation_noba", "no BA (pose refinement + mapping only)", "ba", "  ba: {max_iterations: 0}\n", "[2.83 / 8.23]"},
     {"ablation_r1", "r_BA = 1 m", "ba", "  ba_radius_m: 1.0\n", "[3.12 / 7.98]"},
     {"ablation_r5", "r_BA = 5 m", "ba", "  ba_radius_m: 5.0\n", "[1.07 / 3.24]"},
@@ -116,6 +116,8 @@ constexpr std::array<Variant, 15> kAblations{{
      "  ba_window: sliding\n  ba_sliding_keyframes: 1000\n  ba_max_keyframes: 1000\n  max_keyframe_images: 100000\n",
      "[1.36 / 4.03]"},
     {"ablation_nord", "without the RD loss", "ba", "  rd_loss: false\n", "[3.41 / 3.57]"},
+    {"ablation_rdvelocity", "RD loss through the velocity only (rd_image_gradient: false)", "ba",
+     "  rd_image_gradient: false\n", "[-]  not in the paper"},
     {"ablation_noprior", "without the odometry prior (the paper's losses only)", "ba", "  odometry_prior: false\n",
      "[-]  not in the paper"},
     {"ablation_frontendz", "z from the frontend (level_floor: false)", "ba", "  level_floor: false\n",

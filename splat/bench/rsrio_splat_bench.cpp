@@ -14,8 +14,9 @@
 //     through the real DSP): the DSP's RD against RD rendered from the DSP's RA at s x the true
 //     velocity, s = 0.90 .. 1.10, with each pixel's Doppler at elevation 0, marginalised over the
 //     simulator's elevation beam (RdRenderOptions::elevation_sigma_sin), and from the directions
-//     of the simulator's scatterers drawn as Gaussians. A best s below 1 pulls the
-//     backend's keyframe spacing short.
+//     of the simulator's scatterers drawn as Gaussians; and, at elevation 0, rendered from the RA
+//     those Gaussians render instead of the DSP's (the backend renders its RD from its map's RA).
+//     A best s below 1 pulls the backend's keyframe spacing short.
 //  4. the pose the RA model fits best on simulated cascade frames through the DSP: the offsets
 //     (yaw, forward, left) from the true radar pose at which the backend's RA loss of the
 //     simulator's scatterers, drawn as Gaussians with the radar equation's 1/R^4, is lowest;
@@ -153,6 +154,8 @@ struct SpeedFit {
   // s with the lowest summed loss (parabolic refinement): elevation 0, the elevation beam
   // (RdRenderOptions::elevation_sigma_sin), the scatterers' directions
   double best_flat = 0, best_beam = 0, best_directions = 0;
+  double best_rendered_ra = 0;       // elevation 0, from the scatterers' rendered RA (1/R^4, elevation gain)
+  double best_rendered_ra_beam = 0;  // ... with the simulator's whole two-way beam in their returns
 };
 
 double parabolic_minimum(const std::vector<double>& s, const std::vector<double>& loss) {
@@ -179,6 +182,19 @@ struct SimulatedStretch {
     for (const rsrio::sim::Scatterer& p : sim->scene().static_scatterers())
       scene.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)), std::log(p.rcs_m2));
     scene.update_index();
+  }
+  // Every scatterer with the simulator's two-way beam (its pattern on the amplitude, squared) at
+  // this pose in its return.
+  GaussianScene with_beam(const Eigen::Isometry3d& world_T_radar) const {
+    GaussianScene out;
+    for (const rsrio::sim::Scatterer& p : sim->scene().static_scatterers()) {
+      const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
+      const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
+      const double pattern = scenario.radar_model.beam_pattern(az, el);
+      out.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),
+              std::log(std::max(1e-30, p.rcs_m2 * pattern * pattern)));
+    }
+    return out;
   }
   // visit(radar state, world_T_radar, DSP result) for every stride-th frame whose middle lies in
   // [t0, t1] and for which wanted(radar state) holds (simulated only then).
@@ -216,7 +232,11 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
   std::vector<double> scales;
   for (int k = 0; k <= 40; ++k) scales.push_back(0.90 + 0.005 * k);
   std::vector<double> loss_flat(scales.size(), 0.0), loss_beam(scales.size(), 0.0), loss_dir(scales.size(), 0.0);
-  Image<float> rendered, rd_target;
+  std::vector<double> loss_rendered_ra(scales.size(), 0.0), loss_rendered_ra_beam(scales.size(), 0.0);
+  Image<float> rendered, rd_target, ra_rendered, ra_rendered_beam;
+  RaRenderOptions beam_in_returns = ro;
+  beam_in_returns.elevation_gain_sigma_sin = 0;  // the pattern is in the returns
+  const RaRenderer<float> ra_renderer_plain(grid, beam_in_returns);
   PixelDirections<float> directions;
   const auto moving = [](const rsrio::sim::RigState& radar) { return radar.velocity.norm() >= 0.3; };
   stretch.for_each_frame(t0, t1, stride, moving, [&](const rsrio::sim::RigState& radar,
@@ -238,6 +258,17 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
     RdRenderOptions beam_options = calibrated;
     beam_options.elevation_sigma_sin = stretch.scenario.radar_model.elevation_power_sigma_sin();
     RdRenderer<float> beam(grid, beam_options);
+    // The same from the scatterers' own RA, its RD / RA scale calibrated the same way.
+    ra_renderer.render(stretch.scene, world_T_radar.inverse(), near, ra_rendered);
+    unit.render(ra_rendered, v, rendered);
+    RdRenderOptions from_rendered = rdo;
+    from_rendered.gain = rd.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum());
+    RdRenderer<float> rendered_ra_renderer(grid, from_rendered);
+    ra_renderer_plain.render(stretch.with_beam(world_T_radar), world_T_radar.inverse(), near, ra_rendered_beam);
+    unit.render(ra_rendered_beam, v, rendered);
+    RdRenderOptions from_rendered_beam = rdo;
+    from_rendered_beam.gain = rd.cast<double>().sum() / std::max(1e-30, rendered.cast<double>().sum());
+    RdRenderer<float> rendered_ra_beam_renderer(grid, from_rendered_beam);
     lo.compression.reference = percentile_reference(r.rd, 99.0);
     ImageLoss<float> loss(lo);
     loss.prepare_measurement(rd, rd_target);
@@ -248,12 +279,18 @@ SpeedFit fit_rd_speed(const char* scenario_path, double t0, double t1, int strid
       loss_beam[i] += loss.evaluate(rendered, rd_target, nullptr);
       renderer.render(ra, scales[i] * v, rendered, &directions);
       loss_dir[i] += loss.evaluate(rendered, rd_target, nullptr);
+      rendered_ra_renderer.render(ra_rendered, scales[i] * v, rendered);
+      loss_rendered_ra[i] += loss.evaluate(rendered, rd_target, nullptr);
+      rendered_ra_beam_renderer.render(ra_rendered_beam, scales[i] * v, rendered);
+      loss_rendered_ra_beam[i] += loss.evaluate(rendered, rd_target, nullptr);
     }
     ++out.frames;
   });
   out.best_flat = parabolic_minimum(scales, loss_flat);
   out.best_beam = parabolic_minimum(scales, loss_beam);
   out.best_directions = parabolic_minimum(scales, loss_dir);
+  out.best_rendered_ra = parabolic_minimum(scales, loss_rendered_ra);
+  out.best_rendered_ra_beam = parabolic_minimum(scales, loss_rendered_ra_beam);
   return out;
 }
 
@@ -296,18 +333,8 @@ PoseFit fit_ra_pose(const char* scenario_path, double t0, double t1, int stride,
     const Image<float> ra = Eigen::Map<const Image<float>>(r.ra.data(), grid.range_bins, grid.azimuth_bins);
     std::vector<std::uint32_t> near;
     stretch.scene.query_radius(radar.position, grid.range_bins * grid.range_bin_m + 1.0, near);
-    GaussianScene whole_beam;
-    if (beam.whole_beam) {
-      // Every scatterer with the simulator's two-way beam (its pattern on the amplitude, squared)
-      // at the true pose in its return; the yaw and shifts scanned change it by little.
-      for (const rsrio::sim::Scatterer& p : stretch.sim->scene().static_scatterers()) {
-        const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
-        const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
-        const double pattern = stretch.scenario.radar_model.beam_pattern(az, el);
-        whole_beam.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),
-                       std::log(std::max(1e-30, p.rcs_m2 * pattern * pattern)));
-      }
-    }
+    // The beam at the true pose; the yaw and shifts scanned change it by little.
+    const GaussianScene whole_beam = beam.whole_beam ? stretch.with_beam(world_T_radar) : GaussianScene{};
     const GaussianScene& drawn = beam.whole_beam ? whole_beam : stretch.scene;
     // The rendered scale is the scatterers' RCS, not the DSP's power: one gain per frame, the
     // ratio of the sums at the true pose.
@@ -457,10 +484,13 @@ int main() {
   std::printf("\nthe speed the RD model fits best (x the true speed) on sequence 1's cascade frames, 5-35 s, every "
               "3rd frame, through the DSP\n\n");
   const SpeedFit fit = fit_rd_speed("scenarios/seq1_meeting_room.yaml", 5.0, 35.0, 3);
-  std::printf("| frames | elevation 0 | elevation beam (sigma %.3f) | scatterers' directions |\n"
-              "|--------|-------------|-----------------------------|------------------------|\n",
+  std::printf("| frames | elevation 0 | elevation beam (sigma %.3f) | scatterers' directions | "
+              "elevation 0, scatterers' RA | ... with the whole beam |\n"
+              "|--------|-------------|-----------------------------|------------------------|"
+              "-----------------------------|-------------------------|\n",
               kSimulatorElevationGain);
-  std::printf("| %6d | %11.3f | %27.3f | %22.3f |\n", fit.frames, fit.best_flat, fit.best_beam, fit.best_directions);
+  std::printf("| %6d | %11.3f | %27.3f | %22.3f | %27.3f | %23.3f |\n", fit.frames, fit.best_flat, fit.best_beam,
+              fit.best_directions, fit.best_rendered_ra, fit.best_rendered_ra_beam);
 
   std::printf("\nthe pose the RA model fits best (offset from the true radar pose: yaw deg / forward m / left m) on "
               "simulated cascade frames through the DSP, the simulator's scatterers drawn as Gaussians with 1/R^4\n\n");

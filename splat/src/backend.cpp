@@ -109,11 +109,13 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("max_render_range_m", o.max_render_range_m, {0.0, 10000.0});
   node.read("elevation_gain_sigma_sin", o.elevation_gain_sigma_sin, {0.0, 10.0});
   node.read("range_falloff_exponent", o.range_falloff_exponent, {0.0, 8.0});
+  node.read("azimuth_gain_sigma_deg", o.azimuth_gain_sigma_deg, {0.0, 180.0});
   node.read("rd_kernel_sigma_bins", o.rd_kernel_sigma_bins, {0.0, 100.0});
   node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
   node.read("rd_gain", o.rd_gain, {0.0, 1e12});
   node.read("rd_gaussian_directions", o.rd_gaussian_directions);
   node.read("rd_elevation_sigma_sin", o.rd_elevation_sigma_sin, {0.0, 0.49});
+  node.read("rd_image_gradient", o.rd_image_gradient);
   node.read_choice("psf_range_window", o.psf_range_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_angle_window", o.psf_angle_window, {"none", "hann", "hamming", "blackman"});
   node.read_choice("psf_doppler_window", o.psf_doppler_window, {"none", "hann", "hamming", "blackman"});
@@ -208,11 +210,13 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  max_render_range_m: " << o.max_render_range_m << "\n"
       << "  elevation_gain_sigma_sin: " << o.elevation_gain_sigma_sin << "\n"
       << "  range_falloff_exponent: " << o.range_falloff_exponent << "\n"
+      << "  azimuth_gain_sigma_deg: " << o.azimuth_gain_sigma_deg << "\n"
       << "  rd_kernel_sigma_bins: " << o.rd_kernel_sigma_bins << "\n"
       << "  rd_window_bins: " << o.rd_window_bins << "\n"
       << "  rd_gain: " << o.rd_gain << "\n"
       << "  rd_gaussian_directions: " << (o.rd_gaussian_directions ? "true" : "false") << "\n"
       << "  rd_elevation_sigma_sin: " << o.rd_elevation_sigma_sin << "\n"
+      << "  rd_image_gradient: " << (o.rd_image_gradient ? "true" : "false") << "\n"
       << "  psf_range_window: " << o.psf_range_window << "\n"
       << "  psf_angle_window: " << o.psf_angle_window << "\n"
       << "  psf_doppler_window: " << o.psf_doppler_window << "\n"
@@ -306,8 +310,12 @@ void validate(const BackendOptions& o, const std::string& file) {
 template <typename Scalar>
 KeyframeObjective<Scalar>::KeyframeObjective(const RadarImageGrid& grid, const RaRenderOptions& ra_options,
                                              const RdRenderOptions& rd_options, const ImageLossOptions& ra_loss,
-                                             const ImageLossOptions& rd_loss)
-    : ra_renderer_(grid, ra_options), rd_renderer_(grid, rd_options), ra_loss_(ra_loss), rd_loss_(rd_loss) {}
+                                             const ImageLossOptions& rd_loss, bool rd_image_gradient)
+    : ra_renderer_(grid, ra_options),
+      rd_renderer_(grid, rd_options),
+      ra_loss_(ra_loss),
+      rd_loss_(rd_loss),
+      rd_image_gradient_(rd_image_gradient) {}
 
 template <typename Scalar>
 typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
@@ -328,7 +336,8 @@ typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
     if (rd_backward) {
       grad_rd_ *= static_cast<Scalar>(rd_weight);
       if (!backward) grad_ra_.setZero(ra_.rows(), ra_.cols());
-      rd_renderer_.backward(ra_, *velocity, grad_rd_, &grad_ra_, grad_velocity, directions);
+      rd_renderer_.backward(ra_, *velocity, grad_rd_, rd_image_gradient_ ? &grad_ra_ : nullptr, grad_velocity,
+                            directions);
     }
   }
   if (backward) ra_renderer_.backward(scene, radar_T_world, gaussians, grad_ra_, scene_gradients, grad_pose);
@@ -367,6 +376,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
 
   ra_options_.elevation_gain_sigma_sin = options_.elevation_gain_sigma_sin;
   ra_options_.range_falloff_exponent = options_.range_falloff_exponent;
+  ra_options_.azimuth_gain_sigma_deg = options_.azimuth_gain_sigma_deg;
   rd_options_.kernel_sigma_bins = options_.rd_kernel_sigma_bins > 0
                                       ? options_.rd_kernel_sigma_bins
                                       : window_power_fwhm_bins(options_.psf_doppler_window) / 2.355;
@@ -586,7 +596,8 @@ void Backend::start_map(Keyframe& first) {
   rd_options_.gain = gain;
   stats_.rd_gain = gain;
   objective_ =
-      std::make_unique<KeyframeObjective<float>>(grid_, ra_options_, rd_options_, ra_loss_options_, rd_loss_options_);
+      std::make_unique<KeyframeObjective<float>>(grid_, ra_options_, rd_options_, ra_loss_options_, rd_loss_options_,
+                                                  options_.rd_image_gradient);
 }
 
 void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> points, const Eigen::Vector3d& velocity) {
@@ -617,13 +628,18 @@ void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> poin
     const int ka = std::clamp(static_cast<int>(std::lround(p.azimuth_bin)), 0, grid_.azimuth_bins - 1);
     double rho = kf.ra(kr, ka);
     if (!(rho > 0)) rho = p.power;
-    // ... divided by what the renderer multiplies a point's return with here: the elevation gain
-    // (at most 10 x: a point far off the beam has an elevation too uncertain to trust with more)
-    // and the range falloff (RaRenderOptions).
+    // ... divided by what the renderer multiplies a point's return with here: the elevation and
+    // azimuth gains (each at most 10 x: a point far off the beam has an elevation too uncertain
+    // to trust with more, and is as weak as the noise in azimuth) and the range falloff
+    // (RaRenderOptions).
     const double range = x.norm();
     if (ra_options_.elevation_gain_sigma_sin > 0 && range > 0) {
       const double sin_elevation = x.z() / range, s = ra_options_.elevation_gain_sigma_sin;
       rho /= std::max(0.1, std::exp(-0.5 * sin_elevation * sin_elevation / (s * s)));
+    }
+    if (ra_options_.azimuth_gain_sigma_deg > 0 && range > 0) {
+      const double theta = std::atan2(x.y(), x.x()) / kDeg, s = ra_options_.azimuth_gain_sigma_deg;
+      rho /= std::max(0.1, std::exp(-0.5 * theta * theta / (s * s)));
     }
     if (ra_options_.range_falloff_exponent > 0 && range > 0)
       rho *= std::pow(range / ra_options_.range_falloff_reference_m, ra_options_.range_falloff_exponent);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace rsrio::splat {
@@ -46,6 +47,7 @@ struct Context {
   double psf_var_azimuth = 0;  // bins^2
   double psf_sqrt_det = 0;
   double elevation_var = 0;    // s^2, 0: no elevation gain
+  double inv_azimuth_var = 0;  // 1 / sigma_theta^2 (rad^-2), 0: no azimuth gain
   double falloff_exponent = 0;
   double falloff_reference = 1;
   double min_range = 0;
@@ -77,6 +79,8 @@ struct Projection {
   double gain = 1;                       // c
   double rho = 0;
   double falloff = 1;
+  double theta = 0;                      // atan2(p_y, p_x)
+  double azimuth_gain = 1;
 };
 
 void project(const GaussianScene& scene, std::size_t i, const Eigen::Matrix3d& r_tw,
@@ -137,7 +141,12 @@ void project(const GaussianScene& scene, std::size_t i, const Eigen::Matrix3d& r
   g.falloff = ctx.falloff_exponent != 0
                   ? std::pow(ctx.falloff_reference * inv_r, ctx.falloff_exponent)
                   : 1.0;
-  g.amplitude = g.rho * g.gain * g.falloff * ctx.psf_sqrt_det / std::sqrt(g.det2);
+  g.azimuth_gain = 1.0;
+  if (ctx.inv_azimuth_var > 0) {
+    g.theta = std::atan2(g.p.y(), g.p.x());
+    g.azimuth_gain = std::exp(-0.5 * g.theta * g.theta * ctx.inv_azimuth_var);
+  }
+  g.amplitude = g.rho * g.gain * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
   g.visible = std::isfinite(g.amplitude) && std::isfinite(mu_r) && std::isfinite(mu_a);
 }
 
@@ -263,6 +272,10 @@ Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o) {
   c.psf_var_azimuth = sa * sa;
   c.psf_sqrt_det = grid.range_psf_sigma_bins * sa;
   c.elevation_var = o.elevation_gain_sigma_sin > 0 ? o.elevation_gain_sigma_sin * o.elevation_gain_sigma_sin : 0;
+  if (o.azimuth_gain_sigma_deg > 0) {
+    const double sigma = o.azimuth_gain_sigma_deg * std::numbers::pi / 180.0;
+    c.inv_azimuth_var = 1.0 / (sigma * sigma);
+  }
   c.falloff_exponent = o.range_falloff_exponent;
   c.falloff_reference = o.range_falloff_reference_m;
   c.min_range = std::max(o.min_range_m, 1e-6);
@@ -475,8 +488,10 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
 
     // ---- amplitude factors.
     const double grad_log_return = grad_amp * amp;
-    const double grad_gain = grad_amp * g.rho * g.falloff * ctx.psf_sqrt_det / std::sqrt(g.det2);
+    const double grad_gain = grad_amp * g.rho * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
     double grad_range_m = ctx.falloff_exponent != 0 ? -grad_amp * amp * ctx.falloff_exponent / g.range : 0.0;
+    // Azimuth gain: d log(gain) / d theta = -theta / sigma^2, d theta / dp = (-p_y, p_x, 0) / (p_x^2 + p_y^2).
+    const double grad_theta = ctx.inv_azimuth_var > 0 ? -grad_amp * amp * g.theta * ctx.inv_azimuth_var : 0.0;
 
     // ---- elevation: marginal or closed-form gain.
     Eigen::Matrix3d grad_sigma_pol = Eigen::Matrix3d::Zero();
@@ -503,6 +518,10 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
     Eigen::Vector3d grad_p = g.jac.transpose() * grad_mu_pol;
     const double inv_r = 1.0 / g.range;
     grad_p += grad_range_m * g.n;
+    if (grad_theta != 0) {
+      const double rho2 = g.p.x() * g.p.x() + g.p.y() * g.p.y();
+      grad_p += grad_theta / rho2 * Eigen::Vector3d(-g.p.y(), g.p.x(), 0.0);
+    }
     {
       // Row 0: n / dr.
       const Eigen::Vector3d gj = grad_jac.row(0).transpose();

@@ -145,6 +145,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_lr_pose_translation: 0.02\n"
       "  range_falloff_exponent: 4\n"
       "  rd_elevation_sigma_sin: 0.156\n"
+      "  rd_image_gradient: false\n"
+      "  azimuth_gain_sigma_deg: 36\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n");
   CHECK(o.mapping_keyframes == 7);
   CHECK_FALSE(o.loop_closure);
@@ -152,6 +154,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.loop_lr_pose_translation == 0.02);
   CHECK(o.range_falloff_exponent == 4);
   CHECK(o.rd_elevation_sigma_sin == 0.156);
+  CHECK_FALSE(o.rd_image_gradient);
+  CHECK(o.azimuth_gain_sigma_deg == 36);
   CHECK(o.elevation_gain_sigma_sin == BackendOptions{}.elevation_gain_sigma_sin);
   CHECK(o.lr_pose_translation == BackendOptions{}.lr_pose_translation);
   CHECK(o.loop.search_m == 1.5);
@@ -387,6 +391,31 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   CHECK(std::abs(g_prev[2]) < 1e-9);
   // And the RD term is what carries the previous pose: without it the gradient is zero.
   CHECK(std::abs(g_prev[0]) + std::abs(g_prev[1]) > 0);
+
+  // rd_image_gradient false: the RD term (RA weight 0) moves the velocity exactly as before and
+  // neither the Gaussians nor the pose through the RA image.
+  KeyframeObjective<double> velocity_only(grid, {}, rdo, lo, lo, /*rd_image_gradient=*/false);
+  SceneGradients sg_rd, sg_rd_only;
+  sg_rd.reset(scene.size());
+  sg_rd_only.reset(scene.size());
+  Vector6d g_pose_rd = Vector6d::Zero(), g_pose_rd_only = Vector6d::Zero();
+  Eigen::Vector3d g_v_rd = Eigen::Vector3d::Zero(), g_v_rd_only = Eigen::Vector3d::Zero();
+  const double rd_loss = objective
+                             .evaluate(scene, all, cur.radar_T_world(), &vj.velocity, ra_target, rd_target, 0.0, 0.7,
+                                       &sg_rd, &g_pose_rd, &g_v_rd, directions)
+                             .rd_loss;
+  const double rd_loss_only = velocity_only
+                                  .evaluate(scene, all, cur.radar_T_world(), &vj.velocity, ra_target, rd_target, 0.0,
+                                            0.7, &sg_rd_only, &g_pose_rd_only, &g_v_rd_only, directions)
+                                  .rd_loss;
+  CHECK(rd_loss_only == rd_loss);
+  CHECK(g_pose_rd.norm() > 0);
+  CHECK(g_pose_rd_only.norm() == 0);
+  auto nonzero = [](double x) { return x != 0; };
+  CHECK(std::any_of(sg_rd.means.begin(), sg_rd.means.end(), nonzero));
+  CHECK(std::none_of(sg_rd_only.means.begin(), sg_rd_only.means.end(), nonzero));
+  CHECK(g_v_rd.norm() > 0);
+  CHECK((g_v_rd_only - g_v_rd).norm() <= 1e-12 * g_v_rd.norm());
 }
 
 TEST_CASE("Backend: published poses are the refined keyframe pose composed with the frontend's motion",

@@ -96,9 +96,10 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
         },
         0.0, 1e-6);
   out.pose3 = relative_error(to_vector(analytic3), numeric3);
-  std::printf("RA gradcheck (elevation gain %.2f, falloff %.1f): mean %.2e rotation %.2e log-scale %.2e "
-              "log-return %.2e pose6 %.2e pose3 %.2e\n",
-              options.elevation_gain_sigma_sin, options.range_falloff_exponent, out.mean, out.rotation,
+  std::printf("RA gradcheck (elevation gain %.2f, falloff %.1f, azimuth gain %.0f deg): mean %.2e rotation %.2e "
+              "log-scale %.2e log-return %.2e pose6 %.2e pose3 %.2e\n",
+              options.elevation_gain_sigma_sin, options.range_falloff_exponent, options.azimuth_gain_sigma_deg,
+              out.mean, out.rotation,
               out.log_scale, out.log_return, out.pose6, out.pose3);
   return out;
 }
@@ -127,6 +128,39 @@ TEST_CASE("RA gradients match central differences (elevation gain, range falloff
   options.range_falloff_exponent = 2.0;
   options.range_falloff_reference_m = 3.0;
   for (std::uint64_t seed : {4u, 5u}) require_small(check_gradients(options, seed));
+}
+
+TEST_CASE("RA gradients match central differences (azimuth gain, with and without the rest)", "[splat][ra]") {
+  RaRenderOptions options;
+  options.cutoff_sigma = 7.0;
+  options.azimuth_gain_sigma_deg = 20.0;  // narrow: the gain's slope matters across the scene
+  for (std::uint64_t seed : {6u, 7u}) require_small(check_gradients(options, seed));
+  options.elevation_gain_sigma_sin = 0.25;
+  options.range_falloff_exponent = 4.0;
+  options.range_falloff_reference_m = 3.0;
+  require_small(check_gradients(options, 8u));
+}
+
+TEST_CASE("The azimuth gain dims a Gaussian by the two-way pattern at its azimuth", "[splat][ra]") {
+  const RadarImageGrid grid = RadarImageGrid::from_config(rsrio::radar_preset("mmwcas"));
+  RaRenderOptions with_gain;
+  with_gain.azimuth_gain_sigma_deg = 36.0;
+  const RaRenderer<double> plain(grid), dimmed(grid, with_gain);
+  for (const double azimuth_deg : {0.0, 20.0, -45.0, 60.0}) {
+    const double a = azimuth_deg * std::numbers::pi / 180.0;
+    GaussianScene scene;
+    scene.add(Eigen::Vector3d(6.0 * std::cos(a), 6.0 * std::sin(a), 0.3), Eigen::Quaterniond::Identity(),
+              Eigen::Vector3d::Constant(std::log(0.02)), 0.0);
+    const GaussianFootprint f0 = plain.footprint(scene, 0, Eigen::Isometry3d::Identity());
+    const GaussianFootprint f1 = dimmed.footprint(scene, 0, Eigen::Isometry3d::Identity());
+    REQUIRE(f0.visible);
+    REQUIRE(f1.visible);
+    const double expected = std::exp(-0.5 * (azimuth_deg / 36.0) * (azimuth_deg / 36.0));
+    INFO("azimuth " << azimuth_deg << " deg");
+    CHECK_THAT(f1.amplitude / f0.amplitude, Catch::Matchers::WithinRel(expected, 1e-9));
+    CHECK(f1.range_bin == f0.range_bin);
+    CHECK(f1.azimuth_bin == f0.azimuth_bin);
+  }
 }
 
 TEST_CASE("A point-like Gaussian peaks at its range and azimuth bin with its return ratio", "[splat][ra]") {

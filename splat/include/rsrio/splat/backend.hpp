@@ -136,6 +136,7 @@ struct BackendOptions {
   double max_render_range_m = 0;       // Gaussians farther than this from the radar are not drawn (0: grid)
   double elevation_gain_sigma_sin = 0; // RaRenderOptions
   double range_falloff_exponent = 0;   // RaRenderOptions (reference 1 m); 4: the radar equation
+  double azimuth_gain_sigma_deg = 0;   // RaRenderOptions; the shipped scenarios' beam: 36
   // Doppler soft-binning sigma in bins. <= 0: the DSP's Doppler main lobe (psf_doppler_window's
   // power FWHM / 2.355, 0.61 bins for hann). The paper's 3 bins suit its fine Doppler bins; on
   // an xwr1843 frame (0.29 m/s bins) 3 bins blur the RD image so much that it hardly depends
@@ -159,6 +160,10 @@ struct BackendOptions {
   // and sequences 3-5 worse at the end of the run (README). Not with rd_gaussian_directions,
   // whose directions carry the elevation (a configuration error).
   double rd_elevation_sigma_sin = 0;
+  // The RD loss's gradient reaches the poses and Gaussians through the RA image it is rendered
+  // from (the paper's chain rule) as well as through the velocity. false: through the velocity
+  // only, so that the RD term constrains motion and leaves the map's geometry to the RA loss.
+  bool rd_image_gradient = true;
   std::string psf_range_window = "hann";  // the DSP's windows (dsp.range_window / angle_window)
   std::string psf_angle_window = "none";
   std::string psf_doppler_window = "hann";
@@ -313,8 +318,10 @@ struct KeyframeRender {
 template <typename Scalar>
 class KeyframeObjective {
  public:
+  /// rd_image_gradient false: the RD loss moves the velocity only, not the RA image it is
+  /// rendered from (BackendOptions::rd_image_gradient).
   KeyframeObjective(const RadarImageGrid& grid, const RaRenderOptions& ra_options, const RdRenderOptions& rd_options,
-                    const ImageLossOptions& ra_loss, const ImageLossOptions& rd_loss);
+                    const ImageLossOptions& ra_loss, const ImageLossOptions& rd_loss, bool rd_image_gradient = true);
 
   struct Result {
     double ra_loss = 0, rd_loss = 0;
@@ -339,6 +346,7 @@ class KeyframeObjective {
   RaRenderer<Scalar> ra_renderer_;
   RdRenderer<Scalar> rd_renderer_;
   ImageLoss<Scalar> ra_loss_, rd_loss_;
+  bool rd_image_gradient_;
   Image<Scalar> ra_, rd_, grad_ra_, grad_rd_;
 };
 
