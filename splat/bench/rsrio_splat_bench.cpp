@@ -186,9 +186,10 @@ struct SimulatedStretch {
   // Every scatterer with the simulator's two-way beam (its pattern on the amplitude, squared) at
   // this pose in its return.
   GaussianScene with_beam(const Eigen::Isometry3d& world_T_radar) const {
+    const Eigen::Isometry3d radar_T_world = world_T_radar.inverse();
     GaussianScene out;
     for (const rsrio::sim::Scatterer& p : sim->scene().static_scatterers()) {
-      const Eigen::Vector3d d = world_T_radar.inverse() * p.position;
+      const Eigen::Vector3d d = radar_T_world * p.position;
       const double az = std::atan2(d.y(), d.x()), el = std::asin(std::clamp(d.z() / d.norm(), -1.0, 1.0));
       const double pattern = scenario.radar_model.beam_pattern(az, el);
       out.add(p.position, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.02)),

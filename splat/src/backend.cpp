@@ -629,8 +629,8 @@ void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> poin
     double rho = kf.ra(kr, ka);
     if (!(rho > 0)) rho = p.power;
     // ... divided by what the renderer multiplies a point's return with here: the elevation and
-    // azimuth gains (each at most 10 x: a point far off the beam has an elevation too uncertain
-    // to trust with more, and is as weak as the noise in azimuth) and the range falloff
+    // azimuth gains (each at most 10 x: far off the beam a point's direction is too uncertain,
+    // and its return too close to the noise, to trust with more) and the range falloff
     // (RaRenderOptions).
     const double range = x.norm();
     if (ra_options_.elevation_gain_sigma_sin > 0 && range > 0) {
