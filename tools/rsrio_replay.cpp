@@ -185,12 +185,15 @@ class BaBackend final : public Backend {
     return map_T_odom * frame.state->world_T_body * body_T_radar;
   }
   /// Pipelined: waits until the backend has optimised every candidate handed over, then stops its
-  /// thread (rethrowing what it failed with). Sequential: nothing to wait for.
+  /// thread (rethrowing what it failed with). Then the backend's end-of-run BA (its final_ba
+  /// options; off by default), which moves estimate_final.tum only.
   void finish() {
-    if (!thread_.joinable()) return;
-    input_done_.store(true);
-    thread_.join();
-    rethrow_failure();
+    if (thread_.joinable()) {
+      input_done_.store(true);
+      thread_.join();
+      rethrow_failure();
+    }
+    if (backend_) backend_->finish();
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
   /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, its
@@ -610,6 +613,7 @@ int main(int argc, char** argv) {
          << ", \"pose_iterations\": " << st.pose.iterations << ", \"mapping_iterations\": " << st.mapping.iterations
          << ", \"ba_iterations\": " << st.ba.iterations << ", \"pose_budget_stops\": " << st.pose.budget_stops
          << ", \"mapping_budget_stops\": " << st.mapping.budget_stops
+         << ", \"final_ba_s\": " << st.final_ba.total_s << ", \"final_ba_iterations\": " << st.final_ba.iterations
          << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted
          << ", \"loop_attempts\": " << st.loop_attempts << ", \"loop_closures\": " << st.loop_closures
          << ", \"loop_rejected_score\": " << st.loop_rejected_score

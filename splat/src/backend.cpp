@@ -91,6 +91,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   load_stage(node.child("pose"), o.pose);
   load_stage(node.child("mapping"), o.mapping);
   load_stage(node.child("ba"), o.ba);
+  load_stage(node.child("final_ba"), o.final_ba);
   node.read("first_keyframe_mapping_iterations", o.first_keyframe_mapping_iterations, {0, 100000});
   node.read("pose_coverage_mask", o.pose_coverage_mask);
   node.read("coverage_margin_bins", o.coverage_margin_bins, {0, 1000});
@@ -192,6 +193,7 @@ void print(std::ostream& out, const BackendOptions& o) {
   stage("pose", o.pose);
   stage("mapping", o.mapping);
   stage("ba", o.ba);
+  stage("final_ba", o.final_ba);
   out << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
       << "  pose_coverage_mask: " << (o.pose_coverage_mask ? "true" : "false") << "\n"
       << "  coverage_margin_bins: " << o.coverage_margin_bins << "\n"
@@ -403,6 +405,20 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
 Backend::~Backend() = default;
 
 gtsam::Pose3 Backend::map_T_odom() const { return to_pose3(map_T_odom_); }
+
+void Backend::finish() {
+  if (options_.final_ba.max_iterations <= 0 || keyframes_.size() < 2) return;
+  std::vector<std::size_t> views, poses;
+  for (std::size_t k = 0; k < keyframes_.size(); ++k) {
+    if (!keyframes_[k].has_images()) continue;
+    views.push_back(k);
+    if (k != 0) poses.push_back(k);  // the first keyframe is the gauge, as in every BA window
+  }
+  run_stage(views, poses, true, true, options_.final_ba, options_.final_ba.max_iterations, stats_.final_ba);
+  cleanup_scene();
+  update_correction();
+  stats_.gaussians = scene_.size();
+}
 
 gtsam::Pose3 Backend::corrected(const gtsam::Pose3& odom_T_body) const {
   return to_pose3(map_T_odom_ * to_isometry(odom_T_body));
