@@ -648,17 +648,8 @@ void Backend::add_gaussians(std::size_t k, std::span<const rsrio::DspPoint> poin
     // azimuth gains (each at most 10 x: far off the beam a point's direction is too uncertain,
     // and its return too close to the noise, to trust with more) and the range falloff
     // (RaRenderOptions).
-    const double range = x.norm();
-    if (ra_options_.elevation_gain_sigma_sin > 0 && range > 0) {
-      const double sin_elevation = x.z() / range, s = ra_options_.elevation_gain_sigma_sin;
-      rho /= std::max(0.1, std::exp(-0.5 * sin_elevation * sin_elevation / (s * s)));
-    }
-    if (ra_options_.azimuth_gain_sigma_deg > 0 && range > 0) {
-      const double theta = std::atan2(x.y(), x.x()) / kDeg, s = ra_options_.azimuth_gain_sigma_deg;
-      rho /= std::max(0.1, std::exp(-0.5 * theta * theta / (s * s)));
-    }
-    if (ra_options_.range_falloff_exponent > 0 && range > 0)
-      rho *= std::pow(range / ra_options_.range_falloff_reference_m, ra_options_.range_falloff_exponent);
+    const PointGains gains = point_gains(ra_options_, x);
+    rho /= std::max(0.1, gains.elevation) * std::max(0.1, gains.azimuth) * gains.falloff;
     if (!(rho > 0) || !std::isfinite(rho)) continue;
     accepted.emplace_back(w, rho);
   }

@@ -9,6 +9,20 @@ namespace rsrio::splat {
 
 namespace {
 
+// The amplitude factors of RaRenderOptions that depend on the mean alone; project() and
+// point_gains() share them.
+double inverse_azimuth_variance(const RaRenderOptions& o) {
+  if (!(o.azimuth_gain_sigma_deg > 0)) return 0;
+  const double sigma = o.azimuth_gain_sigma_deg * std::numbers::pi / 180.0;
+  return 1.0 / (sigma * sigma);
+}
+double azimuth_gain(double theta, double inv_azimuth_var) {
+  return inv_azimuth_var > 0 ? std::exp(-0.5 * theta * theta * inv_azimuth_var) : 1.0;
+}
+double range_falloff(double exponent, double reference_m, double inv_range) {
+  return exponent != 0 ? std::pow(reference_m * inv_range, exponent) : 1.0;
+}
+
 // Rotation matrix of a unit quaternion (w, x, y, z).
 Eigen::Matrix3d quat_to_rotation(const Eigen::Vector4d& q) {
   const double w = q[0], x = q[1], y = q[2], z = q[3];
@@ -138,14 +152,9 @@ void project(const GaussianScene& scene, std::size_t i, const Eigen::Matrix3d& r
   g.precision /= g.det2;
 
   g.rho = std::exp(scene.log_returns()[i]);
-  g.falloff = ctx.falloff_exponent != 0
-                  ? std::pow(ctx.falloff_reference * inv_r, ctx.falloff_exponent)
-                  : 1.0;
-  g.azimuth_gain = 1.0;
-  if (ctx.inv_azimuth_var > 0) {
-    g.theta = std::atan2(g.p.y(), g.p.x());
-    g.azimuth_gain = std::exp(-0.5 * g.theta * g.theta * ctx.inv_azimuth_var);
-  }
+  g.falloff = range_falloff(ctx.falloff_exponent, ctx.falloff_reference, inv_r);
+  if (ctx.inv_azimuth_var > 0) g.theta = std::atan2(g.p.y(), g.p.x());
+  g.azimuth_gain = azimuth_gain(g.theta, ctx.inv_azimuth_var);
   g.amplitude = g.rho * g.gain * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
   g.visible = std::isfinite(g.amplitude) && std::isfinite(mu_r) && std::isfinite(mu_a);
 }
@@ -272,10 +281,7 @@ Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o) {
   c.psf_var_azimuth = sa * sa;
   c.psf_sqrt_det = grid.range_psf_sigma_bins * sa;
   c.elevation_var = o.elevation_gain_sigma_sin > 0 ? o.elevation_gain_sigma_sin * o.elevation_gain_sigma_sin : 0;
-  if (o.azimuth_gain_sigma_deg > 0) {
-    const double sigma = o.azimuth_gain_sigma_deg * std::numbers::pi / 180.0;
-    c.inv_azimuth_var = 1.0 / (sigma * sigma);
-  }
+  c.inv_azimuth_var = inverse_azimuth_variance(o);
   c.falloff_exponent = o.range_falloff_exponent;
   c.falloff_reference = o.range_falloff_reference_m;
   c.min_range = std::max(o.min_range_m, 1e-6);
@@ -284,6 +290,21 @@ Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o) {
 }
 
 }  // namespace
+
+PointGains point_gains(const RaRenderOptions& o, const Eigen::Vector3d& p) {
+  PointGains g;
+  const double range = p.norm();
+  if (!(range > 0)) return g;
+  // A zero-size Gaussian's elevation gain: project()'s sqrt(s^2 / tau) exp(-w^2 / 2 tau) with
+  // tau = s^2.
+  if (o.elevation_gain_sigma_sin > 0) {
+    const double w = p.z() / range, s = o.elevation_gain_sigma_sin;
+    g.elevation = std::exp(-0.5 * w * w / (s * s));
+  }
+  g.azimuth = azimuth_gain(std::atan2(p.y(), p.x()), inverse_azimuth_variance(o));
+  g.falloff = range_falloff(o.range_falloff_exponent, o.range_falloff_reference_m, 1.0 / range);
+  return g;
+}
 
 // ---------------------------------------------------------------------------------------------
 template <typename Scalar>

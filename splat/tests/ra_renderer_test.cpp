@@ -163,6 +163,40 @@ TEST_CASE("The azimuth gain dims a Gaussian by the two-way pattern at its azimut
   }
 }
 
+TEST_CASE("point_gains: what the renderer multiplies a point scatterer's return with", "[splat][ra]") {
+  // The backend divides new Gaussians' measured power by these: they must be the renderer's.
+  const RadarImageGrid grid = RadarImageGrid::from_config(rsrio::radar_preset("mmwcas"));
+  RaRenderOptions o;
+  o.elevation_gain_sigma_sin = 0.156;
+  o.azimuth_gain_sigma_deg = 36.0;
+  o.range_falloff_exponent = 4.0;
+  o.range_falloff_reference_m = 2.0;
+  const RaRenderer<double> plain(grid), full(grid, o);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(5.0, 0.0, 0.0), Eigen::Vector3d(4.0, 2.5, 0.6),
+                                  Eigen::Vector3d(3.0, -3.5, -0.4), Eigen::Vector3d(9.0, 1.0, 1.2)}) {
+    GaussianScene scene;  // nearly a point: its size changes the elevation gain by (size / sigma)^2
+    scene.add(p, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(1e-4)), 0.0);
+    const GaussianFootprint f0 = plain.footprint(scene, 0, Eigen::Isometry3d::Identity());
+    const GaussianFootprint f1 = full.footprint(scene, 0, Eigen::Isometry3d::Identity());
+    REQUIRE(f0.visible);
+    REQUIRE(f1.visible);
+    const PointGains g = point_gains(o, p);
+    INFO("p " << p.transpose());
+    CHECK_THAT(g.elevation, Catch::Matchers::WithinRel(std::exp(-0.5 * std::pow(p.z() / p.norm() / 0.156, 2)), 1e-12));
+    CHECK_THAT(g.azimuth, Catch::Matchers::WithinRel(std::exp(-0.5 * std::pow(std::atan2(p.y(), p.x()) * 180.0 /
+                                                                               std::numbers::pi / 36.0, 2)),
+                                                     1e-12));
+    CHECK_THAT(g.falloff, Catch::Matchers::WithinRel(std::pow(2.0 / p.norm(), 4.0), 1e-12));
+    CHECK_THAT(f1.amplitude / f0.amplitude, Catch::Matchers::WithinRel(g.elevation * g.azimuth * g.falloff, 1e-6));
+  }
+  const PointGains off = point_gains(RaRenderOptions{}, Eigen::Vector3d(3.0, 2.0, 1.0));
+  CHECK(off.elevation == 1.0);
+  CHECK(off.azimuth == 1.0);
+  CHECK(off.falloff == 1.0);
+  const PointGains origin = point_gains(o, Eigen::Vector3d::Zero());
+  CHECK(origin.elevation * origin.azimuth * origin.falloff == 1.0);
+}
+
 TEST_CASE("A point-like Gaussian peaks at its range and azimuth bin with its return ratio", "[splat][ra]") {
   const RadarImageGrid grid = RadarImageGrid::from_config(rsrio::radar_preset("mmwcas"));
   const RaRenderer<double> renderer(grid);

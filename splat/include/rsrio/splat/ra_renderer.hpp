@@ -64,6 +64,16 @@ struct RaRenderOptions {
   double min_forward_m = 0.0;
 };
 
+/// What the renderer multiplies the return of a point scatterer (a Gaussian of zero size) at p
+/// (radar frame) with, factor by factor, under these options; 1 where an option is off or p is
+/// the origin. The backend divides a new Gaussian's measured power by them.
+struct PointGains {
+  double elevation = 1;  // elevation_gain_sigma_sin
+  double azimuth = 1;    // azimuth_gain_sigma_deg
+  double falloff = 1;    // range_falloff_exponent
+};
+PointGains point_gains(const RaRenderOptions& options, const Eigen::Vector3d& p);
+
 /// One Gaussian on the grid (what render() draws).
 struct GaussianFootprint {
   bool visible = false;          // passed the range / hemisphere tests and has a finite footprint
