@@ -1,6 +1,6 @@
 // rsrio-eval: APE and RPE of an estimate against ground truth, as evo computes them, and a plot.
 //
-//   rsrio-eval --gt GT.tum --est EST.tum [--align se3|se2|none] [--plot OUT.png]
+//   rsrio-eval --gt GT.tum --est EST.tum [--align se3|se2|none] [--plot OUT.png] [--legs]
 //   rsrio-eval --table | --table-json | --ablation [--data DIR] [--scenarios DIR] [--sequences 1,2,...] [--config FILE] [--reuse]
 //   rsrio-eval --ablation --variants full,noba,... (only these rows; names as the output directories)
 //   rsrio-eval --table | --ablation ... --repeatable
@@ -398,7 +398,7 @@ void print_stats(const char* name, const rsrio::eval::ErrorStats& s) {
 int main(int argc, char** argv) {
   std::string gt, est, align = "se3", plot, delta = "1.0", max_dt = "0.01";
   std::string data_dir = "build/data", scenario_dir = "scenarios", sequences, variants;
-  bool do_table = false, table_json = false, reuse = false, do_ablation = false, repeatable = false;
+  bool do_table = false, table_json = false, reuse = false, do_ablation = false, repeatable = false, legs = false;
   rsrio::Cli cli("rsrio-eval", "Absolute and relative pose error of an estimate against ground truth (TUM files),\n"
                                "computed as evo_ape / evo_rpe do, with an optional trajectory plot.");
   cli.option("--gt", "GT.tum", "ground truth trajectory (TUM: t x y z qx qy qz qw)", &gt)
@@ -406,6 +406,7 @@ int main(int argc, char** argv) {
       .option("--align", "se3|se2|none", "Umeyama alignment before APE (default se3; se2 = yaw + translation)", &align)
       .option("--plot", "OUT.png", "write estimate and ground truth seen from above", &plot)
       .option("--delta", "M", "RPE pose-pair distance along the ground truth in metres (default 1)", &delta)
+      .flag("--legs", "also each straight leg of the ground truth and the distance the estimate covers over it", &legs)
       .option("--max-dt", "S", "largest time difference when pairing stamps (default 0.01 s, as evo)", &max_dt)
       .flag("--table", "simulate (if missing), replay and evaluate the five scenarios: the paper's Table II", &do_table)
       .flag("--table-json", "as --table, the table as JSON on stdout", &table_json)
@@ -462,8 +463,21 @@ int main(int argc, char** argv) {
     print_stats(label, r.translation_m);
     std::snprintf(label, sizeof label, "RPE rotation (deg/%gm)", d);
     print_stats(label, r.rotation_deg);
+    const auto aligned = rsrio::eval::transformed(ea, a.alignment);
+    const auto track = rsrio::eval::track_errors(ra, aligned);
+    std::printf("while the ground truth moves (>= 0.2 m/s, %zu poses), the aligned error in the plane:\n",
+                track.along_m.count);
+    print_stats("  along track (m, +ahead)", track.along_m);
+    print_stats("  across track (m, +left)", track.across_m);
+    if (legs) {
+      const auto list = rsrio::eval::straight_legs(ra, ea);
+      std::printf("straight legs of the ground truth (between stops and turns of 15 deg), end to end in the plane:\n");
+      std::printf("%10s %10s %8s %10s %10s %9s\n", "t0 (s)", "t1 (s)", "heading", "gt (m)", "est (m)", "est/gt");
+      for (const auto& l : list)
+        std::printf("%10.1f %10.1f %8.0f %10.3f %10.3f %9.4f\n", l.t_begin - ra.front().t, l.t_end - ra.front().t,
+                    l.heading_deg, l.ref_m, l.est_m, l.est_m / l.ref_m);
+    }
     if (!plot.empty()) {
-      const auto aligned = rsrio::eval::transformed(ea, a.alignment);
       rsrio::eval::plot_xy(plot, {{"ground truth", &ra, {60, 60, 60}}, {"estimate (aligned)", &aligned, {40, 40, 220}}},
                            "APE " + std::to_string(a.translation_m.rmse).substr(0, 5) + " m rmse");
       std::printf("plot: %s\n", plot.c_str());

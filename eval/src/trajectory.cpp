@@ -199,4 +199,56 @@ RpeResult rpe(const Trajectory& ref, const Trajectory& est, double delta_m) {
   return {stats(et), stats(er)};
 }
 
+namespace {
+// Planar velocity of the reference at pose i: central difference (one-sided at the ends).
+Eigen::Vector2d planar_velocity(const Trajectory& t, std::size_t i) {
+  const std::size_t a = i > 0 ? i - 1 : i, b = i + 1 < t.size() ? i + 1 : i;
+  const double dt = t[b].t - t[a].t;
+  if (b == a || !(dt > 0)) return Eigen::Vector2d::Zero();
+  return (t[b].p - t[a].p).head<2>() / dt;
+}
+}  // namespace
+
+TrackErrors track_errors(const Trajectory& ref, const Trajectory& est_aligned, double min_speed_mps) {
+  if (ref.size() != est_aligned.size()) throw std::invalid_argument("track_errors: trajectories must be associated first");
+  std::vector<double> along, across;
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    const Eigen::Vector2d v = planar_velocity(ref, i);
+    const double speed = v.norm();
+    if (!(speed >= min_speed_mps) || speed == 0) continue;
+    const Eigen::Vector2d d = v / speed, e = (est_aligned[i].p - ref[i].p).head<2>();
+    along.push_back(e.dot(d));
+    across.push_back(d.x() * e.y() - d.y() * e.x());  // d x e: positive to the left
+  }
+  return {stats(along), stats(across)};
+}
+
+std::vector<Leg> straight_legs(const Trajectory& ref, const Trajectory& est, double stop_speed_mps,
+                               double max_turn_deg, double min_duration_s) {
+  if (ref.size() != est.size()) throw std::invalid_argument("straight_legs: trajectories must be associated first");
+  const double cos_max_turn = std::cos(max_turn_deg * M_PI / 180.0);
+  std::vector<Leg> legs;
+  std::size_t i = 0;
+  while (i < ref.size()) {
+    const Eigen::Vector2d v0 = planar_velocity(ref, i);
+    if (v0.norm() < stop_speed_mps || v0.norm() == 0) {
+      ++i;
+      continue;
+    }
+    const Eigen::Vector2d d0 = v0.normalized();
+    auto straight_on = [&](std::size_t k) {
+      const Eigen::Vector2d v = planar_velocity(ref, k);
+      return v.norm() >= stop_speed_mps && v.norm() > 0 && v.normalized().dot(d0) >= cos_max_turn;
+    };
+    std::size_t j = i;
+    while (j + 1 < ref.size() && straight_on(j + 1)) ++j;
+    if (ref[j].t - ref[i].t >= min_duration_s) {
+      const Eigen::Vector2d dr = (ref[j].p - ref[i].p).head<2>(), de = (est[j].p - est[i].p).head<2>();
+      legs.push_back({ref[i].t, ref[j].t, std::atan2(dr.y(), dr.x()) * 180.0 / M_PI, dr.norm(), de.norm()});
+    }
+    i = j + 1;
+  }
+  return legs;
+}
+
 }  // namespace rsrio::eval

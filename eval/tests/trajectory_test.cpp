@@ -133,3 +133,83 @@ TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are
   std::filesystem::remove(path);
   std::filesystem::remove(png);
 }
+
+namespace {
+// A walk through waypoints at `speed` m/s, sampled every dt s, standing `pause_s` at each
+// waypoint (and at the start).
+Trajectory walk(const std::vector<Eigen::Vector2d>& waypoints, double speed, double dt, double pause_s) {
+  Trajectory t;
+  double time = 0;
+  auto add = [&](const Eigen::Vector2d& p) {
+    t.push_back({time, Eigen::Vector3d(p.x(), p.y(), 0), Eigen::Quaterniond::Identity()});
+    time += dt;
+  };
+  for (std::size_t w = 0; w + 1 < waypoints.size(); ++w) {
+    for (double s = 0; s < pause_s; s += dt) add(waypoints[w]);
+    const Eigen::Vector2d a = waypoints[w], b = waypoints[w + 1];
+    const int n = static_cast<int>(std::lround((b - a).norm() / (speed * dt)));
+    for (int k = 0; k < n; ++k) add(a + (b - a) * (double(k) / n));
+  }
+  for (double s = 0; s < pause_s; s += dt) add(waypoints.back());
+  return t;
+}
+}  // namespace
+
+TEST_CASE("track_errors: a lead along the track and an offset to its left, either way, not counted standing",
+          "[eval]") {
+  // Out along +x and back along -x, standing at the ends. The estimate runs 5 cm ahead and 2 cm
+  // to the left of the direction of travel; standing, it is 1 m off (must not count).
+  const Trajectory ref = walk({{0, 0}, {4, 0}, {0, 0}}, 0.5, 0.1, 2.0);
+  Trajectory est = ref;
+  std::size_t moving = 0;
+  for (std::size_t i = 0; i < ref.size(); ++i) {
+    const std::size_t a = i > 0 ? i - 1 : i, b = i + 1 < ref.size() ? i + 1 : i;
+    const double vx = (ref[b].p.x() - ref[a].p.x()) / (ref[b].t - ref[a].t);
+    if (std::abs(vx) >= 0.2) {
+      const double dir = vx > 0 ? 1.0 : -1.0;
+      est[i].p += Eigen::Vector3d(0.05 * dir, 0.02 * dir, 0);
+      ++moving;
+    } else {
+      est[i].p += Eigen::Vector3d(1.0, 1.0, 0);
+    }
+  }
+  const TrackErrors e = track_errors(ref, est);
+  CHECK(e.along_m.count == moving);
+  CHECK(moving > 100);
+  CHECK(e.along_m.mean == Approx(0.05));
+  CHECK(e.along_m.rmse == Approx(0.05));
+  CHECK(e.across_m.mean == Approx(0.02));
+  CHECK(e.across_m.max == Approx(0.02));
+  // The estimate as the reference: nothing along or across.
+  const TrackErrors zero = track_errors(ref, ref);
+  CHECK(zero.along_m.rmse == Approx(0.0).margin(1e-12));
+  CHECK(zero.across_m.rmse == Approx(0.0).margin(1e-12));
+  CHECK_THROWS_AS(track_errors(ref, Trajectory(ref.begin(), ref.end() - 1)), std::invalid_argument);
+}
+
+TEST_CASE("straight_legs: split at stops and at turns; a walk short in y only shows on the y legs", "[eval]") {
+  const std::vector<Eigen::Vector2d> square{{0, 0}, {4, 0}, {4, 2}, {0, 2}, {0, 0}};
+  for (const double pause : {2.0, 0.0}) {  // with stops at the corners, and turning without one
+    INFO("pause " << pause);
+    const Trajectory ref = walk(square, 0.5, 0.1, pause);
+    Trajectory est = ref;
+    for (auto& p : est) p.p.y() *= 0.98;
+    const auto legs = straight_legs(ref, est);
+    REQUIRE(legs.size() == 4);
+    const double headings[] = {0, 90, 180, -90};
+    for (std::size_t k = 0; k < 4; ++k) {
+      INFO("leg " << k);
+      CHECK(std::abs(std::remainder(legs[k].heading_deg - headings[k], 360.0)) < 1e-6);
+      const bool along_y = k % 2 == 1;
+      // The legs lose a sample at each end to the stop or the turn (0.05 m at 0.5 m/s, 0.1 s).
+      CHECK(legs[k].ref_m == Approx(along_y ? 2.0 : 4.0).margin(0.11));
+      CHECK(legs[k].est_m / legs[k].ref_m == Approx(along_y ? 0.98 : 1.0).epsilon(1e-9));
+      CHECK(legs[k].t_end > legs[k].t_begin + 3.0);
+    }
+  }
+  // A leg shorter than min_duration_s is left out.
+  const Trajectory ref = walk({{0, 0}, {1, 0}, {1, 4}}, 0.5, 0.1, 2.0);
+  const auto legs = straight_legs(ref, ref);
+  REQUIRE(legs.size() == 1);
+  CHECK(legs[0].heading_deg == Approx(90.0));
+}

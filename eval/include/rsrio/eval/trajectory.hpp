@@ -64,4 +64,30 @@ RpeResult rpe(const Trajectory& ref, const Trajectory& est, double delta_m);
 
 double path_length(const Trajectory& t);
 
+/// Where an aligned estimate's position error lies against the reference's direction of travel,
+/// in the plane: along the track (positive: the estimate is ahead) and across it (positive: to
+/// the left of the direction of travel). Only poses where the reference moves at min_speed_mps
+/// or more count (the direction is the central difference of the reference's positions). A mean
+/// along-track error is a lead or lag that the alignment cannot take out; a mean cross-track one
+/// on a closed loop is a loop drawn too small (left of a counter-clockwise walk is inwards).
+struct TrackErrors {
+  ErrorStats along_m, across_m;  // signed: mean is the bias, rmse the size
+};
+/// ref and est associated (same length) and est already aligned (transformed by ApeResult::alignment).
+TrackErrors track_errors(const Trajectory& ref, const Trajectory& est_aligned, double min_speed_mps = 0.2);
+
+/// A straight stretch of the reference: moving (planar speed at least stop_speed_mps) with its
+/// direction of travel within max_turn_deg of the direction at the stretch's start, so that stops
+/// and turns end it; and the distance both trajectories cover over it, end to end in the plane. est/ref below 1 on a leg is
+/// a walk drawn short there: a scale error of the speed the estimate integrates, which no rigid
+/// alignment takes out and which one overall scale would hide where it differs between legs.
+struct Leg {
+  double t_begin = 0, t_end = 0;  // reference stamps
+  double heading_deg = 0;         // of the reference's displacement
+  double ref_m = 0, est_m = 0;
+};
+/// ref and est associated (same length); legs shorter than min_duration_s are left out.
+std::vector<Leg> straight_legs(const Trajectory& ref, const Trajectory& est, double stop_speed_mps = 0.05,
+                               double max_turn_deg = 15.0, double min_duration_s = 3.0);
+
 }  // namespace rsrio::eval
