@@ -231,14 +231,16 @@ std::vector<Leg> straight_legs(const Trajectory& ref, const Trajectory& est, dou
   std::size_t i = 0;
   while (i < ref.size()) {
     const Eigen::Vector2d v0 = planar_velocity(ref, i);
-    if (v0.norm() < stop_speed_mps || v0.norm() == 0) {
+    const double speed0 = v0.norm();
+    if (speed0 < stop_speed_mps || speed0 == 0) {
       ++i;
       continue;
     }
-    const Eigen::Vector2d d0 = v0.normalized();
+    const Eigen::Vector2d d0 = v0 / speed0;
     auto straight_on = [&](std::size_t k) {
       const Eigen::Vector2d v = planar_velocity(ref, k);
-      return v.norm() >= stop_speed_mps && v.norm() > 0 && v.normalized().dot(d0) >= cos_max_turn;
+      const double speed = v.norm();
+      return speed >= stop_speed_mps && speed > 0 && v.dot(d0) >= cos_max_turn * speed;
     };
     std::size_t j = i;
     while (j + 1 < ref.size() && straight_on(j + 1)) ++j;

@@ -78,9 +78,10 @@ TrackErrors track_errors(const Trajectory& ref, const Trajectory& est_aligned, d
 
 /// A straight stretch of the reference: moving (planar speed at least stop_speed_mps) with its
 /// direction of travel within max_turn_deg of the direction at the stretch's start, so that stops
-/// and turns end it; and the distance both trajectories cover over it, end to end in the plane. est/ref below 1 on a leg is
-/// a walk drawn short there: a scale error of the speed the estimate integrates, which no rigid
-/// alignment takes out and which one overall scale would hide where it differs between legs.
+/// and turns end it; and the distance both trajectories cover over it, end to end in the plane.
+/// est/ref below 1 on a leg is a walk drawn short there: a scale error of the speed the estimate
+/// integrates, which no rigid alignment takes out and which one overall scale would hide where it
+/// differs between legs.
 struct Leg {
   double t_begin = 0, t_end = 0;  // reference stamps
   double heading_deg = 0;         // of the reference's displacement
