@@ -4,7 +4,10 @@
 // Also the ego-velocity against the simulator's true radar velocity while walking (> 0.3 m/s):
 // the mean and RMS of its direction error in the plane (positive: turned to the left) and the
 // mean speed ratio. A mean direction error is a heading offset that no later stage can see (the
-// trajectory is turned against the poses' yaw by it: the floor of the rotation APE).
+// trajectory is turned against the poses' yaw by it: the floor of the rotation APE). And over
+// every frame with an ego-velocity, its normalised error against its own covariance,
+// NEES = e^T C^-1 e, whose mean is 3 for a covariance that is right: sqrt(mean / 3) is the factor
+// by which the covariance understates the error (the frontend's radar_velocity_sigma_scale).
 //
 //   rsrio-odometry-bench [--seconds S]   (default 12 s of each stretch, 30 s of the corridor ones)
 #include <algorithm>
@@ -46,7 +49,7 @@ void bench(const std::string& label, const std::string& scenario_path, double se
   o.frontend.radar_time_offset_s = s.rig.imu_time_offset_s;
   rsrio::rio::Odometry odometry(s.radar, o);
   rsrio::AdcCube cube = rsrio::AdcCube::for_config(s.radar);
-  std::vector<double> dsp, ego, frontend, total, direction_deg, speed_ratio;
+  std::vector<double> dsp, ego, frontend, total, direction_deg, speed_ratio, nees;
   double points = 0;
   for (std::uint64_t k = 0; k < sim.radar_frames(); ++k) {
     const double t = sim.radar().frame_completion(k);
@@ -64,6 +67,8 @@ void bench(const std::string& label, const std::string& scenario_path, double se
     if (f.ego.ok()) {
       const rsrio::sim::RigState truth = sim.radar_state(f.t);
       const Eigen::Vector3d v = truth.rotation.transpose() * truth.velocity;  // radar axes
+      const Eigen::Vector3d error = f.ego.velocity - v;
+      nees.push_back(error.dot(f.ego.covariance.ldlt().solve(error)));
       if (v.head<2>().norm() > 0.3) {
         const Eigen::Vector3d& e = f.ego.velocity;
         direction_deg.push_back(std::remainder(std::atan2(e.y(), e.x()) - std::atan2(v.y(), v.x()), 2 * std::numbers::pi) *
@@ -80,9 +85,12 @@ void bench(const std::string& label, const std::string& scenario_path, double se
   const double rms = std::sqrt(
       std::inner_product(direction_deg.begin(), direction_deg.end(), direction_deg.begin(), 0.0) /
       static_cast<double>(std::max<std::size_t>(1, direction_deg.size())));
-  std::printf("%-28s %6zu %7.0f | %7.2f %7.2f | %6.3f %6.3f | %7.2f %7.2f | %7.2f %7.2f | %6.0f %7.2f | %+6.2f %5.2f %7.4f\n",
-              label.c_str(), dsp.size(), points / std::max<std::size_t>(1, dsp.size()), a.p50, a.p99, b.p50, b.p99, c.p50,
-              c.p99, d.p50, d.p99, period, period / std::max(d.p50, 1e-9), mean(direction_deg), rms, mean(speed_ratio));
+  std::printf(
+      "%-28s %6zu %7.0f | %7.2f %7.2f | %6.3f %6.3f | %7.2f %7.2f | %7.2f %7.2f | %6.0f %7.2f | %+6.2f %5.2f %7.4f | "
+      "%6.1f %5.2f\n",
+      label.c_str(), dsp.size(), points / std::max<std::size_t>(1, dsp.size()), a.p50, a.p99, b.p50, b.p99, c.p50, c.p99,
+      d.p50, d.p99, period, period / std::max(d.p50, 1e-9), mean(direction_deg), rms, mean(speed_ratio), mean(nees),
+      std::sqrt(mean(nees) / 3));
   std::fflush(stdout);
 }
 
@@ -95,8 +103,9 @@ int main(int argc, char** argv) {
   if (auto rc = cli.parse(argc, argv)) return *rc;
   const double seconds = std::stod(seconds_text);
   std::printf("rsrio-odometry-bench: ms per radar frame, one thread (frames simulated in between, not timed)\n\n");
-  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s | %s\n", "stretch", "frames", "points", "DSP p50/p99",
-              "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt", "ego dir mean/RMS deg, speed");
+  std::printf("%-28s %6s %7s | %15s | %13s | %15s | %15s | %14s | %s | %s\n", "stretch", "frames", "points",
+              "DSP p50/p99", "ego p50/p99", "frontend p50/p99", "total p50/p99", "period  x rt",
+              "ego dir mean/RMS deg, speed", "NEES sqrt(/3)");
   bench("test_tiny (xwr1843, 16 loops)", "scenarios/test_tiny.yaml", std::min(seconds, 6.4));
   bench("seq2 start (mmwcas)", "scenarios/seq2_small_loop.yaml", seconds);
   // Straight down sequence 3's corridor (walls on both sides), 2.5x as long: the direction

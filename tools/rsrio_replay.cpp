@@ -197,9 +197,9 @@ class BaBackend final : public Backend {
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
   /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, its
-  /// roll and pitch retilted with the frontend's last accelerometer bias (rio::retilted: the 3-DoF
-  /// backend keeps the frontend's tilt, which a bias learnt in later turns corrects; 6-DoF
-  /// keyframes have their own). Pipelined: after finish().
+  /// roll and pitch retilted with the frontend's last accelerometer bias (rio::retilted: the
+  /// backend keeps the frontend's tilt, which a bias learnt in later turns corrects; 3-DoF poses
+  /// exactly, 6-DoF ones within their vertical prior). Pipelined: after finish().
   rsrio::eval::Trajectory final_trajectory() const {
     rsrio::eval::Trajectory out;
     if (!backend_ || frames_.empty()) return out;
@@ -207,8 +207,7 @@ class BaBackend final : public Backend {
     const auto& frontend = odometry_->options().frontend;
     const gtsam::Vector3 last_bias = frames_.back().accel_bias;
     for (const auto& f : frames_) {
-      const gtsam::Pose3 odom_T_body =
-          options_.pose_dof == 3 ? rsrio::rio::retilted(f.odom_T_body, f.accel_bias, last_bias, frontend.gravity) : f.odom_T_body;
+      const gtsam::Pose3 odom_T_body = rsrio::rio::retilted(f.odom_T_body, f.accel_bias, last_bias, frontend.gravity);
       out.push_back(stamped(f.t, backend_->revised(f.t, odom_T_body) * frontend.body_T_radar));
     }
     return out;

@@ -126,6 +126,8 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("odometry_prior_sigma_m", o.odometry_prior_sigma_m, {1e-6, 100.0});
   node.read("odometry_prior_sigma_deg", o.odometry_prior_sigma_deg, {1e-6, 180.0});
   node.read("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_deg, {0.0, 180.0});
+  node.read("tilt_prior_sigma_deg", o.tilt_prior_sigma_deg, {1e-6, 180.0});
+  node.read("height_prior_sigma_m", o.height_prior_sigma_m, {1e-6, 100.0});
   node.read("lr_pose_translation", o.lr_pose_translation, {0.0, 10.0});
   node.read("lr_pose_rotation", o.lr_pose_rotation, {0.0, 10.0});
   node.read("lr_means", o.lr_means, {0.0, 10.0});
@@ -228,6 +230,8 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  odometry_prior_sigma_m: " << o.odometry_prior_sigma_m << "\n"
       << "  odometry_prior_sigma_deg: " << o.odometry_prior_sigma_deg << "\n"
       << "  odometry_yaw_sigma_deg: " << o.odometry_yaw_sigma_deg << "\n"
+      << "  tilt_prior_sigma_deg: " << o.tilt_prior_sigma_deg << "\n"
+      << "  height_prior_sigma_m: " << o.height_prior_sigma_m << "\n"
       << "  lr_pose_translation: " << o.lr_pose_translation << "\n"
       << "  lr_pose_rotation: " << o.lr_pose_rotation << "\n"
       << "  lr_means: " << o.lr_means << "\n"
@@ -265,6 +269,8 @@ void validate(const BackendOptions& o, const std::string& file) {
   auto fail = [&](const std::string& key, const std::string& what) { throw ConfigError(file, "backend." + key, what); };
   if (!finite(o.body_T_radar)) fail("body_T_radar", "a finite transform");
   if (o.pose_dof != 3 && o.pose_dof != 6) fail("pose_dof", "3 or 6");
+  if (!(o.tilt_prior_sigma_deg > 0)) fail("tilt_prior_sigma_deg", "a number > 0");
+  if (!(o.height_prior_sigma_m > 0)) fail("height_prior_sigma_m", "a number > 0");
   if (o.ba_window != "radius" && o.ba_window != "sliding") fail("ba_window", "one of 'radius' 'sliding'");
   if (o.mapping_keyframes < 1) fail("mapping_keyframes", "an integer >= 1");
   if (o.ba_sliding_keyframes < 1) fail("ba_sliding_keyframes", "an integer >= 1");
@@ -526,6 +532,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   kf.world_T_radar = map_T_odom_ * odom_T_radar;
   if (options_.level_floor && !keyframes_.empty())
     kf.world_T_radar.translation().z() = keyframes_.front().world_T_radar.translation().z();
+  kf.z_reference = kf.world_T_radar.translation().z();
   // Row-major [range][column]: the first range_bins rows are the cut grid's image.
   kf.ra = Eigen::Map<const Image<float>>(frame.dsp->ra.data(), grid_.range_bins, grid_.azimuth_bins);
   kf.rd = Eigen::Map<const Image<float>>(frame.dsp->rd.data(), grid_.range_bins, grid_.doppler_bins);
@@ -821,6 +828,13 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
     }
     if (optimise_scene) loss += scale_regulariser(scene_, rows, reg, &gradients_);
     if (options_.odometry_prior && priors) loss += odometry_prior(poses, pose_row, grad_left);
+    if (!planar)
+      for (std::size_t r = 0; r < poses.size(); ++r) {
+        const Keyframe& kf = keyframes_[poses[r]];
+        const Eigen::Vector3d up = (kf.odom_T_body * options_.body_T_radar).linear().row(2).transpose();
+        loss += vertical_prior(kf.world_T_radar.inverse(), up, kf.z_reference, options_.tilt_prior_sigma_deg * kDeg,
+                               options_.height_prior_sigma_m, &grad_left[r]);
+      }
     for (std::size_t r = 0; r < poses.size(); ++r) {
       if (planar) {
         const Eigen::Vector3d g =

@@ -153,6 +153,23 @@ double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const Pla
   return 0.5 * (it2 * u.squaredNorm() + ir2 * w * w);
 }
 
+double vertical_prior(const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d& up_reference, double z_reference,
+                      double sigma_tilt, double sigma_z, Vector6d* grad_left) {
+  if (!(sigma_tilt > 0) || !(sigma_z > 0)) throw std::invalid_argument("vertical_prior: sigmas must be positive");
+  const Eigen::Matrix3d& r = radar_T_world.linear();
+  const Eigen::Vector3d g = r.col(2);
+  const Eigen::Vector3d e = g - up_reference;
+  // The radar's position c = -R^T t; z = c.z.
+  const double dz = -r.col(2).dot(radar_T_world.translation()) - z_reference;
+  const double it2 = 1.0 / (sigma_tilt * sigma_tilt), iz2 = 1.0 / (sigma_z * sigma_z);
+  if (grad_left != nullptr) {
+    // Left increment: g <- g + omega x g, and c <- c - R^T rho, so dz / d rho = -g^T.
+    grad_left->head<3>() -= iz2 * dz * g;
+    grad_left->tail<3>() += it2 * g.cross(e);
+  }
+  return 0.5 * (it2 * e.squaredNorm() + iz2 * dz * dz);
+}
+
 PlanarPose extrapolate_planar(const PlanarPose& a, double t_a, const PlanarPose& b, double t_b, double t) {
   if (!(t_b > t_a)) throw std::invalid_argument("extrapolate_planar: t_b must be after t_a");
   const double rate = (t - t_b) / (t_b - t_a);

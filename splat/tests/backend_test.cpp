@@ -3,6 +3,7 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/generators/catch_generators.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -154,6 +155,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  ba_sliding_keyframes: 5\n"
       "  rd_loss: false\n"
       "  pose_dof: 6\n"
+      "  tilt_prior_sigma_deg: 0.3\n"
+      "  height_prior_sigma_m: 0.02\n"
       "  pose: {max_iterations: 20, time_budget_s: 0.05}\n"
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
@@ -183,6 +186,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.ba_sliding_keyframes == 5);
   CHECK_FALSE(o.rd_loss);
   CHECK(o.pose_dof == 6);
+  CHECK(o.tilt_prior_sigma_deg == 0.3);
+  CHECK(o.height_prior_sigma_m == 0.02);
   CHECK(o.pose.max_iterations == 20);
   CHECK(o.pose.time_budget_s == 0.05);
   CHECK(o.ba.max_iterations == BackendOptions{}.ba.max_iterations);
@@ -206,6 +211,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   };
   fails_on("backend: {mapping_keyframe: 3}\n", "mapping_keyframe");
   fails_on("backend: {pose_dof: 4}\n", "pose_dof");
+  fails_on("backend: {tilt_prior_sigma_deg: 0}\n", "tilt_prior_sigma_deg");
   fails_on("backend: {ba_window: everything}\n", "ba_window");
   fails_on("backend: {ba: {max_iterations: -1}}\n", "max_iterations");
   fails_on("backend: {pose: {iterations: 3}}\n", "iterations");
@@ -557,34 +563,53 @@ TEST_CASE("Backend: bad frames are counted and change nothing", "[splat][backend
   CHECK_THROWS_AS(Backend(config, wrong, o), std::invalid_argument);
 }
 
-TEST_CASE("Backend: 6-DoF poses and the sliding BA window refine a drifting walk too", "[splat][backend]") {
+TEST_CASE("Backend: 6-DoF poses and the sliding BA window refine a drifting walk too, tilt and height held",
+          "[splat][backend]") {
   const SyntheticRig rig(6);
   const auto& [config, grids, grid, world] = rig;
-  BackendOptions o = deterministic_options(20, 10, 10, 20);
-  o.pose_dof = 6;
-  o.odometry_prior = false;  // the images alone, as the 3-DoF walk above
-  o.ba_window = "sliding";
-  o.ba_sliding_keyframes = 3;
-  o.max_image_range_m = 12;
-  Backend backend(config, grids, o);
-  const double dt = 0.1, speed = 0.6;
-  feed_straight_walk(backend, rig, 22, dt, speed, 1.05);
-  double err_backend = 0, err_frontend = 0, err_z = 0;
-  for (const auto& [t, pose] : backend.keyframe_poses()) {
-    const int k = static_cast<int>(std::lround(t / dt));
-    const Eigen::Vector3d e = pose.translation() - Eigen::Vector3d(speed * dt * k, 0, 0);
-    err_backend += e.head<2>().norm();
-    err_z += std::abs(e.z());
-    err_frontend += 0.05 * speed * dt * k;
-  }
-  std::printf("synthetic straight walk, 6-DoF, sliding window of 3: summed horizontal keyframe error frontend %.4f m, "
-              "backend %.4f m (vertical: %.4f m)\n",
-              err_frontend, err_backend, err_z);
-  CHECK(backend.grid().range_bins < grids.range_bins);  // cut at 12 m
-  // The horizontal error falls; z, roll and pitch are nearly unobservable (elevation is
-  // marginalised, the scene is flat) and wander under Adam's normalised steps: 3-DoF is the default.
-  CHECK(err_backend < 0.5 * err_frontend);
-  CHECK(backend.stats().nan_guard_hits == 0);
+  struct Run {
+    double horizontal = 0, frontend = 0, max_z = 0, max_tilt_deg = 0;
+  };
+  // sigmas: the vertical prior's (tilt deg, height m); 1e6 is none.
+  auto run = [&](double sigma_tilt_deg, double sigma_z_m) {
+    BackendOptions o = deterministic_options(20, 10, 10, 20);
+    o.pose_dof = 6;
+    o.odometry_prior = false;  // the images alone, as the 3-DoF walk above
+    o.ba_window = "sliding";
+    o.ba_sliding_keyframes = 3;
+    o.max_image_range_m = 12;
+    o.tilt_prior_sigma_deg = sigma_tilt_deg;
+    o.height_prior_sigma_m = sigma_z_m;
+    Backend backend(config, grids, o);
+    const double dt = 0.1, speed = 0.6;
+    feed_straight_walk(backend, rig, 22, dt, speed, 1.05);
+    CHECK(backend.grid().range_bins < grids.range_bins);  // cut at 12 m
+    CHECK(backend.stats().nan_guard_hits == 0);
+    Run out;
+    for (const auto& [t, pose] : backend.keyframe_poses()) {
+      const int k = static_cast<int>(std::lround(t / dt));
+      const Eigen::Vector3d e = pose.translation() - Eigen::Vector3d(speed * dt * k, 0, 0);
+      out.horizontal += e.head<2>().norm();
+      out.frontend += 0.05 * speed * dt * k;
+      out.max_z = std::max(out.max_z, std::abs(e.z()));
+      const double up = std::clamp(pose.rotation().matrix().col(2).z(), -1.0, 1.0);
+      out.max_tilt_deg = std::max(out.max_tilt_deg, std::acos(up) * 180 / std::numbers::pi);
+    }
+    std::printf("synthetic straight walk, 6-DoF, sliding window of 3, vertical prior %g deg / %g m: summed horizontal "
+                "keyframe error frontend %.4f m, backend %.4f m; worst height %.4f m, worst tilt %.3f deg\n",
+                sigma_tilt_deg, sigma_z_m, out.frontend, out.horizontal, out.max_z, out.max_tilt_deg);
+    return out;
+  };
+  const Run held = run(BackendOptions{}.tilt_prior_sigma_deg, BackendOptions{}.height_prior_sigma_m);
+  const Run free = run(1e6, 1e6);
+  // The horizontal error falls either way; z, roll and pitch are nearly unobservable (elevation
+  // is marginalised, the scene is flat): without the prior they wander under Adam's normalised
+  // steps, with it they stay near the frontend's (level here).
+  CHECK(held.horizontal < 0.5 * held.frontend);
+  CHECK(free.horizontal < 0.5 * free.frontend);
+  CHECK(held.max_tilt_deg < 0.5 * free.max_tilt_deg);
+  CHECK(held.max_tilt_deg < BackendOptions{}.tilt_prior_sigma_deg);
+  CHECK(held.max_z < BackendOptions{}.height_prior_sigma_m);
 }
 
 TEST_CASE("Backend: the end-of-run BA over every keyframe takes out what the short windows left",

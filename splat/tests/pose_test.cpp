@@ -215,6 +215,49 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
              Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
 }
 
+TEST_CASE("Vertical prior: zero at the reference tilt and height, blind to yaw and x, y, gradient matches finite "
+          "differences",
+          "[splat][pose]") {
+  std::mt19937_64 rng(17);
+  const double sigma_tilt = 0.5 * std::numbers::pi / 180, sigma_z = 0.05;
+  double worst = 0;
+  for (int trial = 0; trial < 6; ++trial) {
+    const PlanarPose reference = random_planar_pose(rng, 5.0, 0.05);
+    const Eigen::Vector3d up = reference.radar_T_world().linear().col(2);
+    // At the reference, and anywhere else in x, y, yaw: no loss, no gradient.
+    PlanarPose moved = reference;
+    moved.x += 1.5;
+    moved.y -= 0.7;
+    moved.yaw += 2.0;
+    Vector6d g0 = Vector6d::Zero();
+    CHECK(vertical_prior(moved.radar_T_world(), up, reference.z, sigma_tilt, sigma_z, &g0) < 1e-20);
+    CHECK(g0.norm() < 1e-9);
+    // Tilted by a few tenths of a degree and off the floor by centimetres.
+    PlanarPose off = random_planar_pose(rng, 5.0, 0.05);
+    off.roll = reference.roll + 0.01;
+    off.pitch = reference.pitch - 0.007;
+    off.z = reference.z + 0.03;
+    const Eigen::Isometry3d t = off.radar_T_world();
+    Vector6d g = Vector6d::Zero();
+    const double loss = vertical_prior(t, up, reference.z, sigma_tilt, sigma_z, &g);
+    // 0.5 (0.03 / 0.05)^2 from the height and about 0.5 (0.0122 / 0.0087)^2 from the tilt.
+    CHECK(loss > 0.5 * std::pow(0.03 / sigma_z, 2));
+    Vector6d numeric;
+    for (int c = 0; c < 6; ++c) {
+      const double h = 1e-7;
+      Vector6d d = Vector6d::Zero();
+      d[c] = h;
+      numeric[c] = (vertical_prior(se3_exp(d) * t, up, reference.z, sigma_tilt, sigma_z, nullptr) -
+                    vertical_prior(se3_exp(-d) * t, up, reference.z, sigma_tilt, sigma_z, nullptr)) / (2 * h);
+    }
+    worst = std::max(worst, relative_error(to_vector(g), to_vector(numeric)));
+  }
+  std::printf("vertical prior gradcheck: %.2e\n", worst);
+  CHECK(worst < 1e-3);
+  CHECK_THROWS(vertical_prior(Eigen::Isometry3d::Identity(), Eigen::Vector3d::UnitZ(), 0, 0, 1, nullptr));
+  CHECK_THROWS(vertical_prior(Eigen::Isometry3d::Identity(), Eigen::Vector3d::UnitZ(), 0, 1, 0, nullptr));
+}
+
 TEST_CASE("extrapolate_planar continues a constant turn exactly over one interval, and b at t_b", "[splat][pose]") {
   // A rig on a circle of radius 3 m at 0.5 m/s, turning left from heading 2.9 rad (it crosses
   // +-pi), its z, roll and pitch held.

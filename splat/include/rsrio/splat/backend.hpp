@@ -22,7 +22,8 @@
 // POSES. 3-DoF (default, the paper's x, y, yaw): a keyframe's x, y, yaw are optimised and its
 // roll and pitch stay what the (corrected) frontend gave (elevation is marginalised by the
 // renderer, so the images hardly see them); its z is the first keyframe's (level_floor, default)
-// or the frontend's. 6-DoF: se(3) left increments (pose.hpp).
+// or the frontend's. 6-DoF: se(3) left increments (pose.hpp), with roll, pitch and z held softly
+// near the frontend's tilt and the keyframe's starting height (vertical_prior).
 //
 // PRIORS. Besides the paper's image losses, pose refinement and BA weigh the frontend's planar
 // motion between consecutive keyframes (planar_relative_prior) and its heading (planar_yaw_prior)
@@ -195,6 +196,12 @@ struct BackendOptions {
   // frame at the first keyframe, so a keyframe's yaw should stay near the frontend's. Without it
   // the yaw of sequences 3 and 4 random-walked by 3-6 deg over a few minutes, either way.
   double odometry_yaw_sigma_deg = 2.0;
+  // 6-DoF only: the frontend's tilt (roll, pitch) and the keyframe's starting height as a soft
+  // prior on every optimised pose (vertical_prior), in every stage, the revisit alignment too.
+  // The images hardly see them: without it sequence 1's rotation error came out 12.4 deg
+  // (2026-12-04); 3-DoF poses hold all three fixed.
+  double tilt_prior_sigma_deg = 0.5;
+  double height_prior_sigma_m = 0.05;
   // ---- learning rates (Adam)
   double lr_pose_translation = 0.003;  // m
   double lr_pose_rotation = 0.004;     // rad
@@ -313,6 +320,7 @@ struct Keyframe {
   // The heading that loop closures added to the frontend's at this keyframe: the yaw prior's
   // reference is the frontend's heading plus it (a loop correction is not undone by the prior).
   double loop_yaw = 0;
+  double z_reference = 0;  // the height it started at (the 6-DoF vertical prior's)
   bool has_images() const { return ra.size() > 0; }  // false once evicted (max_keyframe_images)
 };
 

@@ -77,6 +77,17 @@ double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const Pla
                              const PlanarPose& b_odom, double sigma_translation_m, double sigma_rotation_rad,
                              Eigen::Vector3d* grad_a, Eigen::Vector3d* grad_b);
 
+/// What a 6-DoF pose may not leave: the frontend's tilt and the floor's height. The images hardly
+/// see roll, pitch and z (elevation is marginalised), where the frontend's gravity-referenced tilt
+/// is good to a few tenths of a degree; 3-DoF poses hold all three fixed, this holds them softly:
+///     g = R e_z (the world's up in the radar frame: yaw-free, so the heading stays the images'),
+///     loss = 0.5 (|g - up_reference|^2 / sigma_tilt^2 + (z - z_reference)^2 / sigma_z^2),
+/// R = radar_T_world's rotation, z the radar's height in the world. ADDS d loss / d delta (left
+/// increment, pose.hpp's order) to grad_left (may be null). std::invalid_argument unless both
+/// sigmas are positive.
+double vertical_prior(const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d& up_reference, double z_reference,
+                      double sigma_tilt_rad, double sigma_z_m, Vector6d* grad_left);
+
 /// The motion from pose a (time t_a) to pose b (t_b > t_a) continued at the same rate to time t:
 /// b followed by (t - t_b) / (t_b - t_a) of a's planar displacement (in a's heading frame) and
 /// heading change, each turned with the heading; z, roll and pitch are b's. The motion model of a
