@@ -159,6 +159,7 @@ class BaBackend final : public Backend {
         alone_ ? backend_->map_T_odom().inverse() * backend_->predicted(frame.t) : frame.state->world_T_body;
     // Alone, no frontend bias retilts the poses (final_trajectory): the same (zero) bias throughout.
     frames_.push_back({frame.t, odom_T_body, alone_ ? gtsam::Vector3::Zero() : frame.state->bias.accelerometer()});
+    if (!alone_ && frame.state->settled) settle(*frame.state->settled);
     const gtsam::Pose3& body_T_radar = odometry_->options().frontend.body_T_radar;
     if (!pipelined_) {
       rsrio::splat::BackendFrame f;
@@ -196,10 +197,12 @@ class BaBackend final : public Backend {
     if (backend_) backend_->finish();
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
-  /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, its
-  /// roll and pitch retilted with the frontend's last accelerometer bias (rio::retilted: the
-  /// backend keeps the frontend's tilt, which a bias learnt in later turns corrects; 3-DoF poses
-  /// exactly, 6-DoF ones within their vertical prior). Pipelined: after finish().
+  /// Every frame's radar pose as the map has it now (Backend::revised), in the frames' order, with
+  /// the frontend's tilt as its window last estimated it (rio::SettledState: smoothed by the
+  /// frames after it; the newest window_states frames keep the tilt published) retilted with the
+  /// frontend's last accelerometer bias (rio::retilted: the backend keeps the frontend's tilt,
+  /// which a bias learnt in later turns corrects; 3-DoF poses exactly, 6-DoF ones within their
+  /// vertical prior). Pipelined: after finish().
   rsrio::eval::Trajectory final_trajectory() const {
     rsrio::eval::Trajectory out;
     if (!backend_ || frames_.empty()) return out;
@@ -207,7 +210,11 @@ class BaBackend final : public Backend {
     const auto& frontend = odometry_->options().frontend;
     const gtsam::Vector3 last_bias = frames_.back().accel_bias;
     for (const auto& f : frames_) {
-      const gtsam::Pose3 odom_T_body = rsrio::rio::retilted(f.odom_T_body, f.accel_bias, last_bias, frontend.gravity);
+      const gtsam::Pose3 odom_T_body =
+          f.settled_attitude
+              ? rsrio::rio::retilted(rsrio::rio::with_tilt_of(f.odom_T_body, *f.settled_attitude), f.settled_accel_bias,
+                                     last_bias, frontend.gravity)
+              : rsrio::rio::retilted(f.odom_T_body, f.accel_bias, last_bias, frontend.gravity);
       out.push_back(stamped(f.t, backend_->revised(f.t, odom_T_body) * frontend.body_T_radar));
     }
     return out;
@@ -262,8 +269,21 @@ class BaBackend final : public Backend {
     double t;
     gtsam::Pose3 odom_T_body;
     gtsam::Vector3 accel_bias;  // the frontend's then
+    std::optional<gtsam::Rot3> settled_attitude = std::nullopt;  // when its state left the window
+    gtsam::Vector3 settled_accel_bias = gtsam::Vector3::Zero();
   };
   std::vector<Frame> frames_;  // every frame given
+  // The frame the settled state was published with: window_states frames back, at its t (to the
+  // rounding of the frontend's clock offset added and taken off again).
+  void settle(const rsrio::rio::SettledState& s) {
+    const std::size_t back = std::min<std::size_t>(frames_.size(), 1000);
+    for (auto it = frames_.rbegin(); it != frames_.rbegin() + static_cast<std::ptrdiff_t>(back); ++it)
+      if (std::abs(it->t - s.t) < 1e-6) {
+        it->settled_attitude = s.world_T_body.rotation();
+        it->settled_accel_bias = s.bias.accelerometer();
+        return;
+      }
+  }
   // Pipelined only.
   std::optional<rsrio::KeyframeHandoff> handoff_;
   std::thread thread_;

@@ -223,8 +223,16 @@ std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVel
   lm.setMaxIterations(options_.lm_max_iterations);
   lm.setVerbosityLM("SILENT");
   values_ = gtsam::LevenbergMarquardtOptimizer(graph_, values_, lm).optimize();
-  if (static_cast<int>(window_.size()) > options_.window_states) marginalise_oldest();
-  return state(k, t_radar, options_.use_radar && ego.ok());
+  std::optional<SettledState> settled;
+  if (static_cast<int>(window_.size()) > options_.window_states) {
+    const auto [j, t_j] = window_.front();
+    settled = SettledState{t_j - options_.radar_time_offset_s, offset_ * values_.at<gtsam::Pose3>(X(j)),
+                           values_.at<gtsam::imuBias::ConstantBias>(B(j))};
+    marginalise_oldest();
+  }
+  FrontendState s = state(k, t_radar, options_.use_radar && ego.ok());
+  s.settled = settled;
+  return s;
 }
 
 gtsam::Pose3 retilted(const gtsam::Pose3& world_T_body, const gtsam::Vector3& accel_bias_then,
@@ -236,6 +244,14 @@ gtsam::Pose3 retilted(const gtsam::Pose3& world_T_body, const gtsam::Vector3& ac
   const gtsam::Vector3 d = (accel_bias_then - accel_bias_now) / gravity;
   const gtsam::Vector3 w = d - d.dot(up) * up;
   return gtsam::Pose3(world_T_body.rotation() * gtsam::Rot3::Expmap(w.cross(up)), world_T_body.translation());
+}
+
+gtsam::Pose3 with_tilt_of(const gtsam::Pose3& world_T_body, const gtsam::Rot3& attitude) {
+  // Q takes the pose's up (in the body frame) to attitude's; R' = R Q^T has R'^T e_z = Q R^T e_z.
+  const gtsam::Vector3 from = world_T_body.rotation().unrotate(gtsam::Vector3::UnitZ());
+  const gtsam::Vector3 to = attitude.unrotate(gtsam::Vector3::UnitZ());
+  const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(from, to);
+  return gtsam::Pose3(world_T_body.rotation() * gtsam::Rot3(q.toRotationMatrix().transpose()), world_T_body.translation());
 }
 
 }  // namespace rsrio::rio

@@ -283,3 +283,55 @@ TEST_CASE("retilted: a later accelerometer bias takes the tilt out of the first 
   const gtsam::Pose3& p = states[100].world_T_body;
   CHECK(retilted(p, final_bias, final_bias, o.gravity).equals(p, 1e-12));
 }
+
+TEST_CASE("settled states: each state leaves the window at its own time, its tilt smoothed by the frames after it",
+          "[frontend]") {
+  // A level rig driving a circle with a noisy ego-velocity: the radar noise pulls on roll and
+  // pitch when a frame comes in, and the window's later frames average it out. (A small
+  // accelerometer bias: the tilt it leaves until the turns tell them apart is retilted's case.)
+  LevelRig rig(31, gtsam::Vector3(0.002, -0.003, 0.001), gtsam::Vector3(0.001, -0.002, 0.003), 0.03);
+  const FrontendOptions& o = rig.options;
+  RioFrontend frontend(o);
+  const double v0 = 0.8, w0 = 0.2, end = 40;
+  std::vector<FrontendState> published;
+  std::vector<SettledState> settled;
+  for (int i = 0; i <= static_cast<int>(end * 200); ++i) {
+    const double t = i / 200.0;
+    const double a = std::clamp((t - 2.0) / 2.0, 0.0, 1.0);
+    const double ramp = 0.5 - 0.5 * std::cos(std::numbers::pi * a);
+    const double dramp = t > 2.0 && t < 4.0 ? 0.25 * std::numbers::pi * std::sin(std::numbers::pi * a) : 0.0;
+    frontend.add_imu(rig.imu(t, v0 * ramp, v0 * dramp, w0 * ramp));
+    if (i % 20 == 10)
+      if (auto s = frontend.add_radar(t, rig.ego(v0 * ramp, w0 * ramp))) {
+        published.push_back(*s);
+        if (s->settled) settled.push_back(*s->settled);
+      }
+  }
+  REQUIRE(published.size() > 300);
+  // Every state but the newest window_states leaves the window once, in order, with its frame's t.
+  REQUIRE(settled.size() == published.size() - static_cast<std::size_t>(o.window_states));
+  for (std::size_t i = 0; i < settled.size(); ++i) REQUIRE(std::abs(settled[i].t - published[i].t) < 1e-9);
+  const auto tilt_deg = [](const gtsam::Rot3& r) {
+    return std::acos(std::clamp(r.rotate(gtsam::Vector3::UnitZ()).z(), -1.0, 1.0)) * 180 / std::numbers::pi;
+  };
+  double published2 = 0, settled2 = 0, moved = 0, turned = 0;
+  int count = 0;
+  for (std::size_t i = 0; i < settled.size(); ++i) {
+    if (published[i].t < 6) continue;  // after the start
+    published2 += std::pow(tilt_deg(published[i].world_T_body.rotation()), 2);
+    settled2 += std::pow(tilt_deg(settled[i].world_T_body.rotation()), 2);
+    // with_tilt_of puts the settled tilt on the published pose: position kept, heading nearly.
+    const gtsam::Pose3 p = with_tilt_of(published[i].world_T_body, settled[i].world_T_body.rotation());
+    CHECK(std::abs(tilt_deg(p.rotation()) - tilt_deg(settled[i].world_T_body.rotation())) < 1e-6);
+    moved = std::max(moved, (p.translation() - published[i].world_T_body.translation()).norm());
+    turned = std::max(turned, std::abs(std::remainder(p.rotation().yaw() - published[i].world_T_body.rotation().yaw(),
+                                                      2 * std::numbers::pi)));
+    ++count;
+  }
+  const double published_rms = std::sqrt(published2 / count), settled_rms = std::sqrt(settled2 / count);
+  INFO("tilt RMS " << published_rms << " deg published, " << settled_rms << " deg settled");
+  CHECK(published_rms > 0.02);  // the case has tilt noise to take out
+  CHECK(settled_rms < 0.7 * published_rms);
+  CHECK(moved == 0.0);
+  CHECK(turned < 1e-5);  // second order in the tilt difference (< 0.1 deg here)
+}
