@@ -50,6 +50,7 @@
 #include "rsrio/splat/losses.hpp"
 #include "rsrio/splat/ra_renderer.hpp"
 #include "rsrio/splat/rd_renderer.hpp"
+#include "synthetic_frame.hpp"
 
 using namespace rsrio::splat;
 
@@ -404,15 +405,8 @@ BackendRun run_backend(const rsrio::RadarConfig& config, double max_image_range_
   o.final_ba = StageOptions{kBenchFinalBaIterations, 0.0, 0.0, kBenchFinalBaIterations, 0.1};  // no early stop
   Backend backend(config, grids, o);
   const RadarImageGrid grid = backend.grid();
-  // Images on the full DSP grid (the backend cuts them).
-  RadarImageGrid full = RadarImageGrid::from_config(config);
   const GaussianScene world = make_room(7);
-  const RaRenderer<float> ra_renderer(full);
-  RdRenderOptions rdo;
-  rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
-  RdRenderer<float> rd_renderer(full, rdo);
-  Image<float> ra, rd;
-  std::vector<rsrio::DspPoint> points;
+  bench::FrameSynthesiser synthesiser(RadarImageGrid::from_config(config));  // the DSP's full grid
   const double dt = 0.1;
   BackendRun out;
   for (int k = 0; k < frames; ++k) {
@@ -423,25 +417,9 @@ BackendRun run_backend(const rsrio::RadarConfig& config, double max_image_range_
     const double heading = std::atan2(0.25 * std::cos(0.5 * t), 0.8);
     world_T_radar.linear() = Eigen::AngleAxisd(heading, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     const Eigen::Vector3d v = world_T_radar.linear().transpose() * Eigen::Vector3d(0.8, 0.25 * std::cos(0.5 * t), 0);
-    ra_renderer.render(world, world_T_radar.inverse(), ra);
-    rd_renderer.render(ra, v, rd);
-    points.clear();
-    for (std::size_t i = 0; i < world.size(); i += 3) {  // a third of the scatterers detected
-      const Eigen::Vector3d p = world_T_radar.inverse() * world.mean(i);
-      const double r = p.norm();
-      if (p.x() < 0.3 || r > grid.range_bins * grid.range_bin_m) continue;
-      rsrio::DspPoint d;
-      d.x = float(p.x()), d.y = float(p.y()), d.z = float(p.z());
-      d.range_bin = float(full.range_to_bin(r));
-      d.azimuth_bin = float(full.sin_to_azimuth_bin(p.y() / r));
-      d.doppler_mps = float(-p.dot(v) / r);
-      d.snr_db = 20;
-      points.push_back(d);
-    }
-    rsrio::DspResult result;
-    result.ra = {ra.data(), std::size_t(ra.size())};
-    result.rd = {rd.data(), std::size_t(rd.size())};
-    result.points = points;
+    // A third of the scatterers detected, within the range the backend renders.
+    const rsrio::DspResult result =
+        synthesiser.render(world, world_T_radar, v, 3, grid.range_bins * grid.range_bin_m).view();
     const Eigen::Isometry3d odom = world_T_radar;  // body = radar (identity extrinsic)
     const auto a = std::chrono::steady_clock::now();
     const bool kf = backend.add_frame({t, gtsam::Pose3(gtsam::Rot3(odom.linear()), odom.translation()), &result});

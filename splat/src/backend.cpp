@@ -782,6 +782,10 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
                                                   directions_[i]);
   }
 
+  // Sized for the scene once a stage (its structure changes between stages); each iteration
+  // zeroes the rows it uses.
+  if (optimise_scene && gradients_.size() != scene_.size()) gradients_.reset(scene_.size());
+
   ScaleRegulariserOptions reg;
   reg.max_scale_m = options_.scale_regulariser_max_m;
   reg.weight = options_.scale_regulariser_weight;
@@ -804,7 +808,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
       scene_adam_.rotations.set_learning_rate(sa.lr_rotations * decay);
       scene_adam_.log_scales.set_learning_rate(sa.lr_log_scales * decay);
       scene_adam_.log_returns.set_learning_rate(sa.lr_log_returns * decay);
-      gradients_.reset(scene_.size());
+      gradients_.zero_rows(rows);  // what the views draw and the regulariser sees: all that is read
     }
     for (Vector6d& g : grad_left) g.setZero();
     double loss = 0;
@@ -846,7 +850,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
     }
     const bool ok = std::isfinite(loss) &&
                     std::all_of(grads.begin(), grads.end(), [](double g) { return std::isfinite(g); }) &&
-                    (!optimise_scene || gradients_.all_finite());
+                    (!optimise_scene || gradients_.all_finite(rows));
     if (!ok) {
       ++stats_.nan_guard_hits;
       continue;
@@ -974,7 +978,9 @@ void Backend::evict_keyframe_images() {
     if (farthest == keyframes_.size()) break;
     Keyframe& kf = keyframes_[farthest];
     for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
-    kf.points = {};
+    // Move-assigned, not `= {}` (assign from an empty list: the capacity stays, a few kB a
+    // keyframe for ever).
+    kf.points = std::vector<Eigen::Vector3f>();
     ++stats_.keyframe_images_evicted;
     --with_images;
   }

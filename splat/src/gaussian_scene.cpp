@@ -45,6 +45,25 @@ bool SceneGradients::all_finite() const {
   return ok(means) && ok(rotations) && ok(log_scales) && ok(log_returns) && ok(image_mean_grad_norm);
 }
 
+void SceneGradients::zero_rows(std::span<const std::uint32_t> rows) {
+  for (const std::uint32_t i : rows) {
+    std::fill_n(&means[3 * i], 3, 0.0);
+    std::fill_n(&rotations[4 * i], 4, 0.0);
+    std::fill_n(&log_scales[3 * i], 3, 0.0);
+    log_returns[i] = 0;
+    image_mean_grad_norm[i] = 0;
+    visible_count[i] = 0;
+  }
+}
+
+bool SceneGradients::all_finite(std::span<const std::uint32_t> rows) const {
+  auto ok = [](const double* v, int n) { return std::all_of(v, v + n, [](double x) { return std::isfinite(x); }); };
+  return std::all_of(rows.begin(), rows.end(), [&](std::uint32_t i) {
+    return ok(&means[3 * i], 3) && ok(&rotations[4 * i], 4) && ok(&log_scales[3 * i], 3) && ok(&log_returns[i], 1) &&
+           ok(&image_mean_grad_norm[i], 1);
+  });
+}
+
 void SceneGradients::add(const SceneGradients& other) {
   auto acc = [](std::vector<double>& a, const std::vector<double>& b) {
     for (std::size_t k = 0; k < a.size(); ++k) a[k] += b[k];
@@ -300,10 +319,18 @@ void GaussianScene::update_index() const {
   const double cell = options_.index_cell_m;
   bucket_of_.resize(n);
   bucket_start_.assign(table + 1, 0);
+  for (int a = 0; a < 3; ++a) {
+    cell_min_[a] = std::numeric_limits<std::int64_t>::max();
+    cell_max_[a] = std::numeric_limits<std::int64_t>::min();
+  }
   for (std::size_t i = 0; i < n; ++i) {
-    const std::uint64_t b = cell_hash(cell_coord(means_[3 * i], cell), cell_coord(means_[3 * i + 1], cell),
-                                      cell_coord(means_[3 * i + 2], cell)) &
-                            bucket_mask_;
+    std::int64_t c[3];
+    for (int a = 0; a < 3; ++a) {
+      c[a] = cell_coord(means_[3 * i + static_cast<std::size_t>(a)], cell);
+      cell_min_[a] = std::min(cell_min_[a], c[a]);
+      cell_max_[a] = std::max(cell_max_[a], c[a]);
+    }
+    const std::uint64_t b = cell_hash(c[0], c[1], c[2]) & bucket_mask_;
     bucket_of_[i] = static_cast<std::uint32_t>(b);
     ++bucket_start_[b + 1];
   }
@@ -315,15 +342,29 @@ void GaussianScene::update_index() const {
   index_stale_ = false;
 }
 
-bool GaussianScene::any_indexed_within(const Eigen::Vector3d& p, double radius) const {
+double GaussianScene::CellBox::cells() const {
+  double n = 1;
+  for (int a = 0; a < 3; ++a) n *= static_cast<double>(hi[a] - lo[a] + 1);
+  return n;
+}
+
+bool GaussianScene::cells_to_visit(const Eigen::Vector3d& p, double radius, CellBox& box) const {
   const double cell = options_.index_cell_m;
+  for (int a = 0; a < 3; ++a) {
+    box.lo[a] = std::max(cell_coord(p[a] - radius, cell), cell_min_[a]);
+    box.hi[a] = std::min(cell_coord(p[a] + radius, cell), cell_max_[a]);
+    if (box.lo[a] > box.hi[a]) return false;
+  }
+  return true;
+}
+
+bool GaussianScene::any_indexed_within(const Eigen::Vector3d& p, double radius) const {
   const double r2 = radius * radius;
-  const std::int64_t x0 = cell_coord(p.x() - radius, cell), x1 = cell_coord(p.x() + radius, cell);
-  const std::int64_t y0 = cell_coord(p.y() - radius, cell), y1 = cell_coord(p.y() + radius, cell);
-  const std::int64_t z0 = cell_coord(p.z() - radius, cell), z1 = cell_coord(p.z() + radius, cell);
-  for (std::int64_t ix = x0; ix <= x1; ++ix)
-    for (std::int64_t iy = y0; iy <= y1; ++iy)
-      for (std::int64_t iz = z0; iz <= z1; ++iz) {
+  CellBox box;
+  if (!cells_to_visit(p, radius, box)) return false;
+  for (std::int64_t ix = box.lo[0]; ix <= box.hi[0]; ++ix)
+    for (std::int64_t iy = box.lo[1]; iy <= box.hi[1]; ++iy)
+      for (std::int64_t iz = box.lo[2]; iz <= box.hi[2]; ++iz) {
         const std::uint64_t b = cell_hash(ix, iy, iz) & bucket_mask_;
         for (std::uint32_t e = bucket_start_[b]; e < bucket_start_[b + 1]; ++e)
           if ((mean(bucket_entries_[e]) - p).squaredNorm() <= r2) return true;
@@ -337,12 +378,9 @@ void GaussianScene::query_radius(const Eigen::Vector3d& center, double radius,
   if (empty() || !(radius >= 0) || !finite_all(center.data(), 3)) return;
   update_index();
   const double r2 = radius * radius;
-  const double cell = options_.index_cell_m;
-  const std::int64_t x0 = cell_coord(center.x() - radius, cell), x1 = cell_coord(center.x() + radius, cell);
-  const std::int64_t y0 = cell_coord(center.y() - radius, cell), y1 = cell_coord(center.y() + radius, cell);
-  const std::int64_t z0 = cell_coord(center.z() - radius, cell), z1 = cell_coord(center.z() + radius, cell);
-  const double cells = static_cast<double>(x1 - x0 + 1) * static_cast<double>(y1 - y0 + 1) *
-                       static_cast<double>(z1 - z0 + 1);
+  CellBox box;
+  if (!cells_to_visit(center, radius, box)) return;
+  const double cells = box.cells();
   auto inside = [&](std::size_t i) {
     const double dx = means_[3 * i] - center.x(), dy = means_[3 * i + 1] - center.y(),
                  dz = means_[3 * i + 2] - center.z();
@@ -358,9 +396,9 @@ void GaussianScene::query_radius(const Eigen::Vector3d& center, double radius,
   // A local list keeps concurrent queries on a fresh index safe.
   std::vector<std::uint32_t> buckets;
   buckets.reserve(static_cast<std::size_t>(cells));
-  for (std::int64_t ix = x0; ix <= x1; ++ix)
-    for (std::int64_t iy = y0; iy <= y1; ++iy)
-      for (std::int64_t iz = z0; iz <= z1; ++iz)
+  for (std::int64_t ix = box.lo[0]; ix <= box.hi[0]; ++ix)
+    for (std::int64_t iy = box.lo[1]; iy <= box.hi[1]; ++iy)
+      for (std::int64_t iz = box.lo[2]; iz <= box.hi[2]; ++iz)
         buckets.push_back(static_cast<std::uint32_t>(cell_hash(ix, iy, iz) & bucket_mask_));
   std::sort(buckets.begin(), buckets.end());
   buckets.erase(std::unique(buckets.begin(), buckets.end()), buckets.end());

@@ -51,6 +51,24 @@ TEST_CASE("The spatial hash returns exactly what a brute-force scan returns", "[
   const Eigen::Vector3d c(3, -2, 0);
   scene.query_radius(c, 5.0, found);
   CHECK(found == brute_force(scene, c, 5.0));
+  // A map as the backend makes it: a long thin slab (a corridor, 200 m x 5 m x 1 m), queried
+  // with the radar's range from inside it, beside it and far away: the query's cells are cut to
+  // the slab's, and nothing is lost by the cut.
+  GaussianScene slab;
+  std::uniform_real_distribution<double> ux(0.0, 200.0), uy(-2.5, 2.5), uz(-0.5, 0.5);
+  for (int i = 0; i < 60000; ++i)
+    slab.add(Eigen::Vector3d(ux(rng), uy(rng), uz(rng)), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), 0);
+  for (const Eigen::Vector3d& at : {Eigen::Vector3d(50, 0, 0), Eigen::Vector3d(0.3, 1, 0.2), Eigen::Vector3d(120, 8, -3),
+                                  Eigen::Vector3d(199.9, -2.5, 0.5), Eigen::Vector3d(-30, 0, 0), Eigen::Vector3d(90, 0, 40)}) {
+    for (const double radius : {0.1, 2.0, 18.7, 40.0}) {
+      slab.query_radius(at, radius, found);
+      REQUIRE(found == brute_force(slab, at, radius));
+    }
+  }
+  slab.query_radius(Eigen::Vector3d(50, 0, 0), 18.7, found);
+  CHECK(found.size() > 10000);
+  slab.query_radius(Eigen::Vector3d(-30, 0, 0), 18.7, found);
+  CHECK(found.empty());
   // Points exactly on the radius are inside.
   GaussianScene tiny;
   tiny.add(Eigen::Vector3d(2, 0, 0), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero(), 0);
