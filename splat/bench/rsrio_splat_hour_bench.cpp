@@ -7,7 +7,8 @@
 // Gaussians). A keyframe every 0.4 m: 9000 an hour. The stages' iteration counts are cut to
 // --iterations (no time budgets) so that the hour runs in minutes; what the backend holds does
 // not depend on them. Every --every minutes of walk it prints the keyframes, those that still hold
-// their images, the Gaussians, the heap in use (glibc's mallinfo2: allocated and not freed), the
+// their images and their static points (with the mean points a keyframe keeps), the Gaussians,
+// the heap in use (glibc's mallinfo2: allocated and not freed), the
 // resident set, and the backend's mean time per keyframe over the interval (a time that grows
 // with the keyframes would be a scan over all of them).
 //
@@ -128,11 +129,13 @@ int main(int argc, char** argv) {
   std::printf("rsrio-splat-hour-bench: the backend (default options, mmwcas grid %d x %d, %d Doppler bins, %.1f m) "
               "walking 1 m/s along an endless corridor (~52 scatterers a metre) for %.0f min; stages at %d "
               "iterations; caps: max_gaussians %d, max_keyframe_images %d (%.0f kB of images each: measured and "
-              "compressed RA and RD)\n\n",
+              "compressed RA and RD), max_keyframe_points %d\n\n",
               grid.range_bins, grid.azimuth_bins, grid.doppler_bins, range_m, args.minutes, args.iterations,
-              o.max_gaussians, o.max_keyframe_images, image_kb);
-  std::printf("| walk (min) | keyframes | with images | Gaussians | heap in use (MB) | resident (MB) | ms / keyframe |\n");
-  std::printf("|------------|-----------|-------------|-----------|------------------|---------------|---------------|\n");
+              o.max_gaussians, o.max_keyframe_images, image_kb, o.max_keyframe_points);
+  std::printf("| walk (min) | keyframes | with images | with points (mean) | Gaussians | heap in use (MB) | resident (MB) | "
+              "ms / keyframe |\n");
+  std::printf("|------------|-----------|-------------|--------------------|-----------|------------------|---------------|"
+              "---------------|\n");
 
   const double dt = 0.1, speed = 1.0;
   const long frames = std::lround(args.minutes * 60.0 / dt);
@@ -140,8 +143,8 @@ int main(int argc, char** argv) {
   const double heap_start = heap_in_use_mb();
   const rsrio::DspImages* frame = nullptr;
   double interval_s = 0;
-  std::size_t interval_keyframes = 0, half_keyframes = 0;
-  double half_heap = 0;
+  std::size_t interval_keyframes = 0, late_keyframes = 0;
+  double late_heap = 0;
   for (long k = 0; k <= frames; ++k) {
     const double t = static_cast<double>(k) * dt;
     Eigen::Isometry3d world_T_radar = Eigen::Isometry3d::Identity();
@@ -174,29 +177,35 @@ int main(int argc, char** argv) {
       ++interval_keyframes;
     }
     if (k > 0 && (k % frames_per_row == 0 || k == frames)) {
-      std::size_t with_images = 0;
-      for (const Keyframe& kf : backend.keyframes()) with_images += kf.has_images() ? 1 : 0;
+      std::size_t with_images = 0, with_points = 0, points = 0;
+      for (const Keyframe& kf : backend.keyframes()) {
+        with_images += kf.has_images() ? 1 : 0;
+        with_points += kf.points.empty() ? 0 : 1;
+        points += kf.points.size();
+      }
       const double heap = heap_in_use_mb();
-      std::printf("| %10.1f | %9zu | %11zu | %9zu | %16.1f | %13.1f | %13.1f |\n", t / 60.0, backend.keyframes().size(),
-                  with_images, backend.scene().size(), heap, resident_mb(),
+      std::printf("| %10.1f | %9zu | %11zu | %9zu (%5.0f) | %9zu | %16.1f | %13.1f | %13.1f |\n", t / 60.0,
+                  backend.keyframes().size(), with_images, with_points,
+                  static_cast<double>(points) / static_cast<double>(std::max<std::size_t>(1, with_points)),
+                  backend.scene().size(), heap, resident_mb(),
                   1e3 * interval_s / static_cast<double>(std::max<std::size_t>(1, interval_keyframes)));
       std::fflush(stdout);
       interval_s = 0;
       interval_keyframes = 0;
-      if (half_keyframes == 0 && 2 * k >= frames) {
-        half_keyframes = backend.keyframes().size();
-        half_heap = heap;
+      if (late_keyframes == 0 && 4 * k >= 3 * frames) {
+        late_keyframes = backend.keyframes().size();
+        late_heap = heap;
       }
     }
   }
   const double heap_end = heap_in_use_mb();
   const std::size_t keyframes_end = backend.keyframes().size();
-  std::printf("\nheap in use: %.1f MB before the backend's first frame, %.1f MB at the end; over the second half of the "
-              "walk %+.0f bytes per keyframe (a keyframe without its images: %zu bytes, plus the vector's spare "
-              "capacity); nan guard hits %llu\n",
+  std::printf("\nheap in use: %.1f MB before the backend's first frame, %.1f MB at the end; over the last quarter of "
+              "the walk %+.0f bytes per keyframe (a keyframe without its images and points: %zu bytes, plus the "
+              "vector's spare capacity); nan guard hits %llu\n",
               heap_start, heap_end,
-              keyframes_end > half_keyframes
-                  ? (heap_end - half_heap) * 1024.0 * 1024.0 / static_cast<double>(keyframes_end - half_keyframes)
+              keyframes_end > late_keyframes
+                  ? (heap_end - late_heap) * 1024.0 * 1024.0 / static_cast<double>(keyframes_end - late_keyframes)
                   : 0.0,
               sizeof(Keyframe), static_cast<unsigned long long>(backend.stats().nan_guard_hits));
   return 0;

@@ -136,6 +136,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("lr_log_returns", o.lr_log_returns, {0.0, 10.0});
   node.read("max_gaussians", o.max_gaussians, {1, 100'000'000});
   node.read("max_keyframe_images", o.max_keyframe_images, {1, 100'000'000});
+  node.read("max_keyframe_points", o.max_keyframe_points, {1, 100'000'000});
   node.read("init_scale_m", o.init_scale_m, {1e-4, 10.0});
   node.read("init_min_spacing_m", o.init_min_spacing_m, {0.0, 10.0});
   node.read("static_doppler_tolerance_mps", o.static_doppler_tolerance_mps, {0.0, 100.0});
@@ -240,6 +241,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  lr_log_returns: " << o.lr_log_returns << "\n"
       << "  max_gaussians: " << o.max_gaussians << "\n"
       << "  max_keyframe_images: " << o.max_keyframe_images << "\n"
+      << "  max_keyframe_points: " << o.max_keyframe_points << "\n"
       << "  init_scale_m: " << o.init_scale_m << "\n"
       << "  init_min_spacing_m: " << o.init_min_spacing_m << "\n"
       << "  static_doppler_tolerance_mps: " << o.static_doppler_tolerance_mps << "\n"
@@ -283,6 +285,8 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (o.max_gaussians < 1) fail("max_gaussians", "an integer >= 1");
   if (o.max_keyframe_images < std::max(o.mapping_keyframes, o.ba_max_keyframes))
     fail("max_keyframe_images", "an integer >= mapping_keyframes and ba_max_keyframes (those keep their images)");
+  if (o.max_keyframe_points < o.max_keyframe_images || (o.loop_closure && o.max_keyframe_points < o.loop_query_keyframes))
+    fail("max_keyframe_points", "an integer >= max_keyframe_images and loop_query_keyframes (points outlive images)");
   if (o.odometry_prior && !(o.odometry_prior_sigma_m > 0)) fail("odometry_prior_sigma_m", "a number > 0");
   if (o.odometry_prior && !(o.odometry_prior_sigma_deg > 0)) fail("odometry_prior_sigma_deg", "a number > 0");
   if (!(o.loop.cell_m > 0)) fail("loop_match.cell_m", "a number > 0");
@@ -590,7 +594,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
     run_stage(window, ba_poses, true, true, options_.ba, options_.ba.max_iterations, stats_.ba);
   }
   cleanup_scene();
-  evict_keyframe_images();
+  evict_keyframe_data();
   update_correction();
   stats_.gaussians = scene_.size();
   return true;
@@ -957,33 +961,49 @@ void Backend::cleanup_scene() {
   remap_scene(scene_.prune());
 }
 
-void Backend::evict_keyframe_images() {
-  const auto cap = static_cast<std::size_t>(options_.max_keyframe_images);
-  const std::size_t protected_newest =
-      static_cast<std::size_t>(std::max(options_.mapping_keyframes, options_.ba_max_keyframes));
-  std::size_t with_images = 0;
-  for (const Keyframe& kf : keyframes_) with_images += kf.has_images() ? 1 : 0;
+void Backend::evict_keyframe_data() {
+  // Farthest from the newest keyframe first; the newest that the windows use never (their
+  // images: mapping and BA; their points: the revisit alignment's query). Images go first
+  // (max_keyframe_images), the static points later (max_keyframe_points >= it): the revisit
+  // alignment needs only the earlier keyframes' points and Gaussians, and the points are a few
+  // hundred bytes where the images are ~160 kB.
+  const int windows = std::max(options_.mapping_keyframes, options_.ba_max_keyframes);
   const Eigen::Vector3d c = keyframes_.back().world_T_radar.translation();
-  while (with_images > cap && keyframes_.size() > protected_newest) {
-    std::size_t farthest = keyframes_.size();
-    double best = -1;
-    for (std::size_t i = 0; i + protected_newest < keyframes_.size(); ++i) {
-      if (!keyframes_[i].has_images()) continue;
-      const double d = (keyframes_[i].world_T_radar.translation() - c).squaredNorm();
-      if (d > best) {
-        best = d;
-        farthest = i;
+  auto evict = [&](int cap, int newest_kept, auto holds, auto drop) {
+    const auto protected_newest = static_cast<std::size_t>(newest_kept);
+    std::size_t holding = 0;
+    for (const Keyframe& kf : keyframes_) holding += holds(kf) ? 1 : 0;
+    while (holding > static_cast<std::size_t>(cap) && keyframes_.size() > protected_newest) {
+      std::size_t farthest = keyframes_.size();
+      double best = -1;
+      for (std::size_t i = 0; i + protected_newest < keyframes_.size(); ++i) {
+        if (!holds(keyframes_[i])) continue;
+        const double d = (keyframes_[i].world_T_radar.translation() - c).squaredNorm();
+        if (d > best) {
+          best = d;
+          farthest = i;
+        }
       }
+      if (farthest == keyframes_.size()) break;
+      drop(keyframes_[farthest]);
+      --holding;
     }
-    if (farthest == keyframes_.size()) break;
-    Keyframe& kf = keyframes_[farthest];
-    for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
-    // Move-assigned, not `= {}` (assign from an empty list: the capacity stays, a few kB a
-    // keyframe for ever).
-    kf.points = std::vector<Eigen::Vector3f>();
-    ++stats_.keyframe_images_evicted;
-    --with_images;
-  }
+  };
+  evict(
+      options_.max_keyframe_images, windows, [](const Keyframe& kf) { return kf.has_images(); },
+      [&](Keyframe& kf) {
+        for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
+        ++stats_.keyframe_images_evicted;
+      });
+  evict(
+      options_.max_keyframe_points, std::max(windows, options_.loop_closure ? options_.loop_query_keyframes : 0),
+      [](const Keyframe& kf) { return !kf.points.empty(); },
+      [&](Keyframe& kf) {
+        // Move-assigned, not `= {}` (assign from an empty list: the capacity stays, a few kB a
+        // keyframe for ever).
+        kf.points = std::vector<Eigen::Vector3f>();
+        ++stats_.keyframe_points_evicted;
+      });
 }
 
 void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_rendered_c, double knee, int margin,

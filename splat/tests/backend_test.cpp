@@ -224,6 +224,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {odometry_prior_sigma_m: 0}\n", "odometry_prior_sigma_m");
   fails_on("backend: {level_floor: yes please}\n", "level_floor");
   fails_on("backend: {max_keyframe_images: 5}\n", "max_keyframe_images");  // < mapping_keyframes
+  fails_on("backend: {max_keyframe_points: 100}\n", "max_keyframe_points");  // < max_keyframe_images
   fails_on("backend: {coverage_margin_bins: -1}\n", "coverage_margin_bins");
   fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
@@ -801,8 +802,8 @@ TEST_CASE("Backend: through new ground the Gaussians and keyframe images stay at
           "[splat][backend]") {
   // A corridor 60 m long (walls at y = +-2.5 m, a scatterer every 0.3 m, clutter between): every
   // keyframe sees ground no keyframe saw, so without the caps the map and the images would grow
-  // with every keyframe. What a keyframe keeps once its images are dropped is its pose (sizeof
-  // Keyframe), which is what the heap may grow by (SPEC Sec. 9: bounded memory).
+  // with every keyframe. What a keyframe keeps once its images and points are dropped is its pose
+  // (sizeof Keyframe), which is what the heap may grow by (SPEC Sec. 9: bounded memory).
   SyntheticRig rig(10);
   rig.world = GaussianScene();
   std::mt19937_64 rng(10);
@@ -818,6 +819,7 @@ TEST_CASE("Backend: through new ground the Gaussians and keyframe images stay at
   o.mapping_keyframes = 2;
   o.ba_max_keyframes = 2;
   o.max_keyframe_images = 6;
+  o.max_keyframe_points = 8;
   o.max_gaussians = 150;
   o.loop_closure = false;
   Backend backend(rig.config, rig.grids, o);
@@ -850,6 +852,9 @@ TEST_CASE("Backend: through new ground the Gaussians and keyframe images stay at
   std::size_t with_images = 0;
   for (const Keyframe& kf : kfs) with_images += kf.has_images() ? 1 : 0;
   CHECK(with_images == 6);
+  std::size_t with_points = 0;
+  for (const Keyframe& kf : kfs) with_points += kf.points.empty() ? 0 : 1;
+  CHECK(with_points == 8);
   CHECK(backend.stats().nan_guard_hits == 0);
   // The newest keyframe is tracked: the map of the last stretch is there, not evicted.
   CHECK((backend.corrected(pose3(Eigen::Isometry3d(kfs.back().odom_T_body))).translation() -
@@ -970,10 +975,19 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   struct Errors {
     double published = 0, revised = 0;
   };
-  auto walk = [&](bool loop_closure, BackendStats& stats, Errors& errors) {
+  // `evicting`: the keyframes keep their images only while among the 4 nearest to the newest
+  // (max_keyframe_images), so back at the start the first pass's images are gone; their static
+  // points stay unless max_keyframe_points drops them too.
+  auto walk = [&](bool loop_closure, BackendStats& stats, Errors& errors, bool evicting = false,
+                  int max_keyframe_points = BackendOptions{}.max_keyframe_points) {
     BackendOptions o = deterministic_options(10, 5, 5, 20);
     o.max_image_range_m = 12;
     o.loop_closure = loop_closure;
+    if (evicting) {
+      o.mapping_keyframes = o.ba_max_keyframes = 3;
+      o.max_keyframe_images = 4;
+    }
+    o.max_keyframe_points = max_keyframe_points;
     o.loop_min_age_s = 3;        // the first pass's keyframes, seconds ago in this short walk
     o.loop_every_keyframes = 1;
     o.loop_query_keyframes = 3;
@@ -1035,4 +1049,24 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
               mean_without.published, mean_without.revised, mean_with.published, mean_with.revised);
   CHECK(mean_with.revised < mean_with.published);
   CHECK(mean_with.revised < mean_without.revised);
+
+  // The first pass's images evicted before the revisit: the alignment needs only its points and
+  // Gaussians.
+  BackendStats evicted_stats, no_points_stats;
+  Errors mean_evicted, mean_no_points;
+  const auto [err_evicted, yaw_evicted] = walk(true, evicted_stats, mean_evicted, true);
+  const auto [err_no_points, yaw_no_points] = walk(true, no_points_stats, mean_no_points, true, 4);
+  std::printf("out-and-back walk, the first pass's images evicted: final keyframe error %.3f m / %.2f deg (%llu "
+              "loops, %llu images and %llu points evicted); with its points dropped too %.3f m / %.2f deg (%llu loops)\n",
+              err_evicted, yaw_evicted, static_cast<unsigned long long>(evicted_stats.loop_closures),
+              static_cast<unsigned long long>(evicted_stats.keyframe_images_evicted),
+              static_cast<unsigned long long>(evicted_stats.keyframe_points_evicted), err_no_points, yaw_no_points,
+              static_cast<unsigned long long>(no_points_stats.loop_closures));
+  CHECK(evicted_stats.keyframe_images_evicted >= evicted_stats.keyframes - 4);
+  CHECK(evicted_stats.keyframe_points_evicted == 0);
+  CHECK(evicted_stats.loop_closures >= 1);
+  CHECK(yaw_evicted < 0.5 * yaw_without);
+  CHECK(no_points_stats.keyframe_points_evicted > 0);
+  CHECK(err_evicted < err_no_points);
+  CHECK(yaw_evicted < yaw_no_points);
 }

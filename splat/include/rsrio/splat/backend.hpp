@@ -248,6 +248,11 @@ struct BackendOptions {
   // and the trajectory; it takes no part in the windows any more). The newest mapping_keyframes /
   // ba_max_keyframes are never dropped. 500 keyframes cover ~200 m of path at 0.4 m spacing.
   int max_keyframe_images = 500;
+  // Keyframes whose static CFAR points are kept (the revisit alignment's earlier pass; a few
+  // hundred bytes each): beyond it those of the farthest are dropped, as the images are. 5000
+  // keyframes are 2 km of path, about what max_gaussians covers: an older pass has no Gaussians
+  // left to align against.
+  int max_keyframe_points = 5000;
   double init_scale_m = 0.1;
   double init_min_spacing_m = 0.1;     // a CFAR point this near an existing Gaussian adds none
   double static_doppler_tolerance_mps = 0.3;  // points moving relative to the world add none
@@ -297,6 +302,7 @@ struct BackendStats {
   std::uint64_t gaussians_added = 0;
   std::uint64_t points_rejected_dynamic = 0;
   std::uint64_t keyframe_images_evicted = 0;  // keyframes whose images were dropped (max_keyframe_images)
+  std::uint64_t keyframe_points_evicted = 0;  // keyframes whose static points were dropped (max_keyframe_points)
   // Revisit alignment: matches tried, loops closed, and matches refused (each reason counted).
   std::uint64_t loop_attempts = 0, loop_closures = 0;
   std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
@@ -465,7 +471,7 @@ class Backend {
                         std::vector<Vector6d>& grad_left) const;
   Eigen::Vector3d velocity_of(std::size_t k, RadarVelocity* jacobians) const;
   void cleanup_scene();
-  void evict_keyframe_images();
+  void evict_keyframe_data();
   /// The newest keyframe's targets for pose refinement (pose_coverage_mask): where the map renders
   /// nothing near, the rendered image itself.
   void mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable = nullptr);
