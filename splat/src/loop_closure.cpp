@@ -174,6 +174,8 @@ std::vector<Eigen::Vector3d> close_loops(std::span<const Eigen::Vector3d> poses,
       throw std::invalid_argument("close_loops: a constraint needs from < to < the number of poses");
     first = std::min(first, c.from);
   }
+  if (o.max_keyframes > 0 && poses.size() > o.max_keyframes)
+    first = std::max(first, std::min(loops.back().from, poses.size() - o.max_keyframes));
   using gtsam::symbol_shorthand::X;
   gtsam::NonlinearFactorGraph graph;
   gtsam::Values values;
@@ -189,7 +191,8 @@ std::vector<Eigen::Vector3d> close_loops(std::span<const Eigen::Vector3d> poses,
                                                                odometry);
   }
   for (const LoopConstraint& c : loops)
-    graph.emplace_shared<gtsam::BetweenFactor<gtsam::Pose2>>(X(c.from), X(c.to), pose2(c.relative), loop);
+    if (c.from >= first)
+      graph.emplace_shared<gtsam::BetweenFactor<gtsam::Pose2>>(X(c.from), X(c.to), pose2(c.relative), loop);
   const gtsam::Values result = gtsam::LevenbergMarquardtOptimizer(graph, values).optimize();
   for (std::size_t i = first; i < poses.size(); ++i) {
     const gtsam::Pose2 p = result.at<gtsam::Pose2>(X(i));

@@ -189,3 +189,32 @@ TEST_CASE("close_loops averages loops that disagree instead of bending the chain
   const std::vector<Eigen::Vector3d> tight = close_loops(l.drifted, loops, PoseGraphOptions{0.02, 0.05, 0.005, 0.01});
   CHECK(std::abs(yaw_error_deg(tight[2], l.truth[2])) > 0.4);
 }
+
+TEST_CASE("close_loops bounds its graph to the newest keyframes, and to the newest loop's span") {
+  const int n = 232;
+  const DriftedLoop l = drifted_loop(n, -1.9);
+  const LoopConstraint whole{2, static_cast<std::size_t>(n), planar_between(l.truth[2], l.truth[n])};
+  PoseGraphOptions bounded;
+  bounded.max_keyframes = 100;
+  // The newest loop reaches further back than 100 keyframes: the graph takes all of its span,
+  // as without the bound.
+  const std::vector<LoopConstraint> one{whole};
+  const std::vector<Eigen::Vector3d> unbounded_out = close_loops(l.drifted, one, PoseGraphOptions{0.02, 0.15, 0.05, 0.3, 0});
+  const std::vector<Eigen::Vector3d> bounded_out = close_loops(l.drifted, one, bounded);
+  for (int i = 0; i <= n; ++i) CHECK((bounded_out[i] - unbounded_out[i]).norm() < 1e-9);
+  // An old loop (2 -> 120) and a new one (150 -> 232, 83 keyframes): the graph starts at 150,
+  // the old loop stays out, nothing before 150 moves, and the new loop is met.
+  const LoopConstraint old_loop{2, 120, planar_between(l.truth[2], l.truth[120])};
+  const LoopConstraint new_loop{150, static_cast<std::size_t>(n), planar_between(l.truth[150], l.truth[n])};
+  const std::vector<LoopConstraint> two{old_loop, new_loop};
+  const std::vector<Eigen::Vector3d> out = close_loops(l.drifted, two, bounded);
+  for (int i = 0; i < 150; ++i) CHECK((out[i] - l.drifted[i]).norm() < 1e-12);
+  auto yaw_off = [&](const Eigen::Vector3d& relative) {
+    return std::abs(std::remainder(relative.z() - new_loop.relative.z(), 2 * std::numbers::pi)) / kDeg;
+  };
+  const Eigen::Vector3d before = planar_between(l.drifted[150], l.drifted[n]), met = planar_between(out[150], out[n]);
+  INFO("the new loop's yaw off by " << yaw_off(before) << " deg before, " << yaw_off(met) << " after");
+  CHECK(yaw_off(before) > 0.6);
+  CHECK(yaw_off(met) < 0.1 * yaw_off(before));
+  CHECK((met - new_loop.relative).head<2>().norm() < 0.1 * (before - new_loop.relative).head<2>().norm());
+}
