@@ -166,3 +166,29 @@ TEST_CASE("add_points keeps a minimum spacing to existing and new Gaussians", "[
   CHECK(scene.rejected_non_finite() == 1);
   CHECK_THROWS(scene.add_points(second, AddPointsOptions{-1.0, 1.0, 0.0}, Eigen::Vector3d::Zero()));
 }
+
+TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed Gaussians", "[splat][scene]") {
+  SceneGradients g;
+  g.reset(5);
+  for (auto* v : {&g.means, &g.rotations, &g.log_scales, &g.log_returns, &g.image_mean_grad_norm})
+    std::fill(v->begin(), v->end(), 1.0);
+  std::fill(g.visible_count.begin(), g.visible_count.end(), 3u);
+  const std::vector<std::uint32_t> rows{1, 3};
+  g.zero_rows(rows);
+  for (std::uint32_t i = 0; i < 5; ++i) {
+    const double expected = (i == 1 || i == 3) ? 0.0 : 1.0;
+    CHECK(g.means[3 * i + 2] == expected);
+    CHECK(g.rotations[4 * i + 3] == expected);
+    CHECK(g.log_scales[3 * i] == expected);
+    CHECK(g.log_returns[i] == expected);
+    CHECK(g.image_mean_grad_norm[i] == expected);
+    CHECK(g.visible_count[i] == (expected == 0.0 ? 0u : 3u));
+  }
+  // A NaN outside the rows is not the stage's; inside them it is.
+  g.rotations[4 * 2 + 1] = std::numeric_limits<double>::quiet_NaN();
+  CHECK(g.all_finite(rows));
+  CHECK_FALSE(g.all_finite());
+  g.log_scales[3 * 3 + 2] = std::numeric_limits<double>::infinity();
+  CHECK_FALSE(g.all_finite(rows));
+  CHECK(g.all_finite(std::vector<std::uint32_t>{0, 4}));
+}
