@@ -52,8 +52,10 @@ Args parse(int argc, char** argv) {
     if (end == value || *end != '\0' || !(v > 0)) throw std::invalid_argument(key + ": not a positive number: " + value);
     if (key == "--minutes")
       a.minutes = v;
-    else if (key == "--iterations")
+    else if (key == "--iterations" && v == std::floor(v) && v <= 1000)
       a.iterations = static_cast<int>(v);
+    else if (key == "--iterations")
+      throw std::invalid_argument("--iterations: not a whole number from 1 to 1000: " + std::string(value));
     else if (key == "--every")
       a.every_minutes = v;
     else
