@@ -178,12 +178,12 @@ class BaBackend final : public Backend {
     }
     rethrow_failure();
     handoff_->offer(frame.t, Eigen::Isometry3d(frame.state->world_T_body.matrix()), dsp.result());
-    gtsam::Pose3 map_T_odom;
+    rsrio::splat::OdomCorrection correction;
     {
       std::lock_guard<std::mutex> lock(correction_mutex_);
-      map_T_odom = map_T_odom_;
+      correction = correction_;
     }
-    return map_T_odom * frame.state->world_T_body * body_T_radar;
+    return gtsam::Pose3(correction.apply(Eigen::Isometry3d(frame.state->world_T_body.matrix())).matrix()) * body_T_radar;
   }
   /// Pipelined: waits until the backend has optimised every candidate handed over, then stops its
   /// thread (rethrowing what it failed with). Then the backend's end-of-run BA (its final_ba
@@ -245,7 +245,7 @@ class BaBackend final : public Backend {
           if (handoff_->hand_to_backend(c, *backend_)) {
             keyframe_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
             std::lock_guard<std::mutex> lock(correction_mutex_);
-            map_T_odom_ = backend_->map_T_odom();
+            correction_ = backend_->correction();
           }
           continue;
         }
@@ -290,7 +290,7 @@ class BaBackend final : public Backend {
   std::atomic<bool> stop_{false}, input_done_{false}, failed_{false};
   std::exception_ptr failure_;
   std::mutex correction_mutex_;
-  gtsam::Pose3 map_T_odom_;  // the newest correction (identity until the first keyframe: map = odom)
+  rsrio::splat::OdomCorrection correction_;  // the newest (identity until the first keyframe: map = odom)
 };
 
 // The process's peak resident memory (ru_maxrss), MB: the replay's memory figure.

@@ -86,11 +86,6 @@ rio::ImuSample to_sample(const sensor_msgs::msg::Imu& m) {
   return s;
 }
 
-// What the BA thread hands to the publisher after each keyframe.
-struct Correction {
-  Eigen::Isometry3d map_T_odom = Eigen::Isometry3d::Identity();
-};
-
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   const std::size_t k = static_cast<std::size_t>(std::min<double>(v.size() - 1, std::floor(q * v.size())));
@@ -110,7 +105,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
   std::unique_ptr<OdometryStage> odometry_stage;
   std::unique_ptr<splat::Backend> backend;     // null: backend none
   std::unique_ptr<KeyframeHandoff> keyframes;  // RIO -> BA
-  SpscQueue<Correction> corrections{8};        // BA -> publisher (latest wins)
+  SpscQueue<splat::OdomCorrection> corrections{8};  // BA -> publisher (latest wins)
   PublisherOptions publisher_options;
   std::unique_ptr<OdometryPublisher> publisher;
 
@@ -423,7 +418,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
             ba_keyframes.store(st.keyframes);
             ba_gaussians.store(st.gaussians);
             ba_nan_guards.store(st.nan_guard_hits);
-            Correction corr{Eigen::Isometry3d(backend->map_T_odom().matrix())};
+            splat::OdomCorrection corr = backend->correction();
             corrections.try_push(corr);  // full: the publisher is behind; a later one follows
           }
         } catch (const std::exception& e) {
@@ -525,7 +520,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 
   void publisher_loop() {
     PoseOutput p;
-    Correction correction;  // map_T_odom: identity until the backend's first keyframe (map = odom there)
+    splat::OdomCorrection correction;  // identity until the backend's first keyframe (map = odom there)
     auto next_status = Clock::now();
     bool imu_stale_reported = false;
     while (true) {
@@ -540,7 +535,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
           odom_T_base.linear() =
               Eigen::Quaterniond(p.orientation[3], p.orientation[0], p.orientation[1], p.orientation[2])
                   .toRotationMatrix();
-          const Eigen::Isometry3d map_T_base = correction.map_T_odom * odom_T_base;
+          const Eigen::Isometry3d map_T_base = correction.apply(odom_T_base);  // base_link = the frontend's body
           const Eigen::Quaterniond q(map_T_base.linear());
           p.has_map_pose = true;
           p.map_position = {map_T_base.translation().x(), map_T_base.translation().y(), map_T_base.translation().z()};

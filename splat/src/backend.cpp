@@ -414,7 +414,14 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
 
 Backend::~Backend() = default;
 
-gtsam::Pose3 Backend::map_T_odom() const { return to_pose3(map_T_odom_); }
+Eigen::Isometry3d OdomCorrection::apply(const Eigen::Isometry3d& odom_T_body) const {
+  Eigen::Isometry3d map_T_body = map_T_odom * odom_T_body;
+  if (hold_height)
+    map_T_body.translation().z() -= (map_T_odom.linear() * (odom_T_body.translation() - keyframe_odom_position)).z();
+  return map_T_body;
+}
+
+gtsam::Pose3 Backend::map_T_odom() const { return to_pose3(correction_.map_T_odom); }
 
 void Backend::finish() {
   if (options_.final_ba.max_iterations <= 0 || keyframes_.size() < 2) return;
@@ -431,7 +438,7 @@ void Backend::finish() {
 }
 
 gtsam::Pose3 Backend::corrected(const gtsam::Pose3& odom_T_body) const {
-  return to_pose3(map_T_odom_ * to_isometry(odom_T_body));
+  return to_pose3(correction_.apply(to_isometry(odom_T_body)));
 }
 
 const BackendStats& Backend::stats() const { return stats_; }
@@ -449,8 +456,7 @@ gtsam::Pose3 Backend::revised(double t, const gtsam::Pose3& odom_T_body) const {
   auto it = std::upper_bound(keyframes_.begin(), keyframes_.end(), t,
                              [](double time, const Keyframe& k) { return time < k.t; });
   const Keyframe& k = it == keyframes_.begin() ? *it : *std::prev(it);
-  const Eigen::Isometry3d map_T_body = k.world_T_radar * options_.body_T_radar.inverse();
-  return to_pose3(map_T_body * k.odom_T_body.inverse() * to_isometry(odom_T_body));
+  return to_pose3(correction_at(k).apply(to_isometry(odom_T_body)));
 }
 
 gtsam::Pose3 Backend::predicted(double t) const {
@@ -533,7 +539,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   Keyframe kf;
   kf.t = frame.t;
   kf.odom_T_body = odom_T_body;
-  kf.world_T_radar = map_T_odom_ * odom_T_radar;
+  kf.world_T_radar = correction_.map_T_odom * odom_T_radar;
   if (options_.level_floor && !keyframes_.empty())
     kf.world_T_radar.translation().z() = keyframes_.front().world_T_radar.translation().z();
   kf.z_reference = kf.world_T_radar.translation().z();
@@ -1176,11 +1182,15 @@ void Backend::align_revisit(std::size_t k) {
   ++stats_.loop_closures;
 }
 
-void Backend::update_correction() {
-  const Keyframe& newest = keyframes_.back();
-  const Eigen::Isometry3d map_T_body = newest.world_T_radar * options_.body_T_radar.inverse();
-  map_T_odom_ = map_T_body * newest.odom_T_body.inverse();
+OdomCorrection Backend::correction_at(const Keyframe& k) const {
+  OdomCorrection c;
+  c.map_T_odom = k.world_T_radar * options_.body_T_radar.inverse() * k.odom_T_body.inverse();
+  c.hold_height = options_.level_floor;
+  c.keyframe_odom_position = k.odom_T_body.translation();
+  return c;
 }
+
+void Backend::update_correction() { correction_ = correction_at(keyframes_.back()); }
 
 KeyframeRender Backend::render_keyframe(std::size_t k) { return render_keyframe(k, nullptr); }
 

@@ -725,35 +725,99 @@ TEST_CASE("Backend: without a frontend, frames given at its own prediction are t
   CHECK(tracked < 0.1 * predicted_only);
 }
 
-TEST_CASE("Backend: level_floor holds the keyframes at the first keyframe's height, not the frontend's",
+TEST_CASE("OdomCorrection: on a level floor a pose keeps its keyframe's height and moves as the frontend otherwise",
+          "[splat][backend]") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto random_pose = [&] {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = (Eigen::AngleAxisd(3.0 * u(rng), Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(0.05 * u(rng), Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(0.05 * u(rng), Eigen::Vector3d::UnitX()))
+                     .toRotationMatrix();
+    T.translation() = Eigen::Vector3d(5 * u(rng), 5 * u(rng), 0.3 * u(rng));
+    return T;
+  };
+  for (int trial = 0; trial < 20; ++trial) {
+    OdomCorrection c;
+    c.map_T_odom = random_pose();  // tilted: the frontend's vertical and the map's differ
+    const Eigen::Isometry3d odom_T_keyframe = random_pose();
+    c.keyframe_odom_position = odom_T_keyframe.translation();
+    const Eigen::Isometry3d odom_T_body = random_pose();
+    const Eigen::Isometry3d rigid = c.map_T_odom * odom_T_body;
+    CHECK((c.apply(odom_T_body).matrix() - rigid.matrix()).norm() < 1e-12);  // without: REP-105's map -> odom
+    c.hold_height = true;
+    const Eigen::Isometry3d held = c.apply(odom_T_body);
+    CHECK(std::abs(held.translation().z() - (c.map_T_odom * odom_T_keyframe).translation().z()) < 1e-12);
+    CHECK((held.translation().head<2>() - rigid.translation().head<2>()).norm() < 1e-12);
+    CHECK((held.linear() - rigid.linear()).norm() < 1e-12);
+    // At the keyframe itself nothing changes: a correction update is as continuous as without.
+    CHECK((c.apply(odom_T_keyframe).matrix() - (c.map_T_odom * odom_T_keyframe).matrix()).norm() < 1e-12);
+  }
+}
+
+TEST_CASE("Backend: level_floor holds the keyframes and the poses published between them at the keyframes' height",
           "[splat][backend]") {
   const SyntheticRig rig(7);
   const auto& [config, grids, grid, world] = rig;
+  struct Walk {
+    std::vector<double> keyframe_z;
+    double published_z_spread = 0;  // max - min of every corrected pose's z after the first keyframe
+    double revised_z_spread = 0;
+    double published_xy_error = 0;  // against the newest keyframe composed with the frontend's motion
+  };
   auto walk = [&](bool level_floor) {
     BackendOptions o = deterministic_options(10, 5, 5, 10);
     o.level_floor = level_floor;
     Backend backend(config, grids, o);
     // Level walk; the frontend's z climbs 2 cm per frame.
     Eigen::Isometry3d odom = Eigen::Isometry3d::Identity();
+    std::vector<std::pair<double, gtsam::Pose3>> frames;
+    std::vector<double> published_z;
+    Eigen::Isometry3d keyframe_odom = Eigen::Isometry3d::Identity();
+    Walk w;
     for (int k = 0; k < 12; ++k) {
       Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
       truth.translation() = Eigen::Vector3d(0.06 * k, 0, 0);
       odom.translation() = Eigen::Vector3d(0.06 * k, 0, 0.02 * k);
       const SyntheticFrame f = synthesise(world, grid, truth, Eigen::Vector3d(0.6, 0, 0));
       const rsrio::DspResult r = f.view();
-      backend.add_frame({k * 0.1, pose3(odom), &r});
+      if (backend.add_frame({k * 0.1, pose3(odom), &r})) keyframe_odom = odom;
+      frames.emplace_back(k * 0.1, pose3(odom));
+      if (backend.keyframe_poses().empty()) continue;
+      const gtsam::Pose3 published = backend.corrected(pose3(odom));
+      published_z.push_back(published.translation().z());
+      const gtsam::Pose3 newest = backend.keyframe_poses().back().second;
+      const gtsam::Pose3 expected = newest.compose(pose3(keyframe_odom).between(pose3(odom)));
+      w.published_xy_error =
+          std::max(w.published_xy_error, (published.translation() - expected.translation()).head<2>().norm());
     }
-    std::vector<double> z;
-    for (const auto& [t, pose] : backend.keyframe_poses()) z.push_back(pose.translation().z());
-    return z;
+    for (const auto& [t, pose] : backend.keyframe_poses()) w.keyframe_z.push_back(pose.translation().z());
+    auto spread = [](const std::vector<double>& z) {
+      const auto [lo, hi] = std::minmax_element(z.begin(), z.end());
+      return z.empty() ? 0.0 : *hi - *lo;
+    };
+    w.published_z_spread = spread(published_z);
+    std::vector<double> revised_z;
+    for (const auto& [t, pose] : frames) revised_z.push_back(backend.revised(t, pose).translation().z());
+    w.revised_z_spread = spread(revised_z);
+    return w;
   };
-  const std::vector<double> level = walk(true), frontend = walk(false);
-  REQUIRE(level.size() >= 3);
-  REQUIRE(frontend.size() == level.size());
-  for (std::size_t i = 1; i < level.size(); ++i) {
-    CHECK(std::abs(level[i] - level[0]) < 1e-9);
-    CHECK(frontend[i] - frontend[0] > 0.05 * static_cast<double>(i));  // the frontend's climb
+  const Walk level = walk(true), frontend = walk(false);
+  REQUIRE(level.keyframe_z.size() >= 3);
+  REQUIRE(frontend.keyframe_z.size() == level.keyframe_z.size());
+  for (std::size_t i = 1; i < level.keyframe_z.size(); ++i) {
+    CHECK(std::abs(level.keyframe_z[i] - level.keyframe_z[0]) < 1e-9);
+    CHECK(frontend.keyframe_z[i] - frontend.keyframe_z[0] > 0.05 * static_cast<double>(i));  // the frontend's climb
   }
+  // Published and end-of-run poses: level on the level floor (the rig's tilt is zero here), the
+  // frontend's climb without it; horizontally the frontend's motion since the keyframe either way.
+  CHECK(level.published_z_spread < 1e-9);
+  CHECK(level.revised_z_spread < 1e-9);
+  CHECK(frontend.published_z_spread > 0.15);
+  CHECK(frontend.revised_z_spread > 0.15);
+  CHECK(level.published_xy_error < 1e-9);
+  CHECK(frontend.published_xy_error < 1e-9);
 }
 
 TEST_CASE("Backend: keyframe images beyond max_keyframe_images are dropped farthest first, poses kept",

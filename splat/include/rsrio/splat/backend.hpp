@@ -17,7 +17,8 @@
 //     map_T_odom = map_T_body(newest keyframe, refined) * odom_T_body(newest keyframe)^-1,
 // so that corrected(odom_T_body) = map_T_odom odom_T_body is the refined keyframe pose composed
 // with the frontend's motion since that keyframe (REP-105's map -> odom). At the newest keyframe
-// corrected() is exactly its refined pose; between keyframes it moves exactly as the frontend.
+// corrected() is exactly its refined pose; between keyframes it moves exactly as the frontend
+// (on a level floor only horizontally: OdomCorrection).
 //
 // POSES. 3-DoF (default, the paper's x, y, yaw): a keyframe's x, y, yaw are optimised and its
 // roll and pitch stay what the (corrected) frontend gave (elevation is marginalised by the
@@ -181,7 +182,9 @@ struct BackendOptions {
   // The platform moves on a level floor: every keyframe's radar height (map z) is the first
   // keyframe's instead of the frontend's, whose z drifts (the radar hardly sees height, and
   // double-integrated vertical acceleration wanders: decimetres over a few minutes). 3-DoF poses
-  // keep it there; 6-DoF poses start from it.
+  // keep it there; 6-DoF poses start from it. A corrected pose keeps its keyframe's height too
+  // (OdomCorrection): between keyframes the frontend's z wanders by up to 3 cm in a second on the
+  // simulated walks, and published that way it snapped back at every keyframe.
   bool level_floor = true;
   // The frontend's planar motion between consecutive keyframes as a prior in pose refinement and
   // BA (planar_relative_prior; not in the paper, whose image losses alone let the poses slide
@@ -395,6 +398,19 @@ void mask_uncovered(const Image<float>& ra_rendered_compressed, const Image<floa
 /// earlier pass's keyframes). Sorted ascending; the newest is always in it.
 std::vector<std::size_t> radius_window(std::span<const Eigen::Vector3d> positions, double radius_m, std::size_t cap);
 
+/// What turns a frontend pose (odom_T_body) into a corrected one, as of one keyframe: map_T_odom
+/// (REP-105's map -> odom) and, on a level floor (BackendOptions::level_floor), the keyframe's
+/// height. A value the BA thread hands to the publisher: no allocation.
+struct OdomCorrection {
+  Eigen::Isometry3d map_T_odom = Eigen::Isometry3d::Identity();
+  bool hold_height = false;                                   // level_floor
+  Eigen::Vector3d keyframe_odom_position = Eigen::Vector3d::Zero();  // the keyframe's body origin in odom
+
+  /// map_T_odom * odom_T_body; with hold_height, minus the vertical (map z) part of the frontend's
+  /// motion since the keyframe, so that the body stays at the keyframe's height.
+  Eigen::Isometry3d apply(const Eigen::Isometry3d& odom_T_body) const;
+};
+
 class Backend {
  public:
   /// Throws std::invalid_argument when the grids are not those of `config` (sizes and steps) or
@@ -421,14 +437,18 @@ class Backend {
   void finish();
 
   gtsam::Pose3 map_T_odom() const;
-  /// map_T_odom * odom_T_body.
+  /// As of the newest keyframe (identity before the first).
+  const OdomCorrection& correction() const { return correction_; }
+  /// correction().apply(odom_T_body): map_T_odom * odom_T_body, at the newest keyframe's height on
+  /// a level floor.
   gtsam::Pose3 corrected(const gtsam::Pose3& odom_T_body) const;
   const BackendStats& stats() const;
   /// (t, map_T_body) of every keyframe, refined.
   std::vector<std::pair<double, gtsam::Pose3>> keyframe_poses() const;
   /// The pose of the frame at time t (frontend pose odom_T_body) as the map has it NOW, not as it
   /// was published: the refined pose of the last keyframe at or before t (the first keyframe for
-  /// earlier frames) composed with the frontend's motion since that keyframe. Later BA and loop
+  /// earlier frames) composed with the frontend's motion since that keyframe (on a level floor
+  /// without its vertical part, as corrected()). Later BA and loop
   /// closures move it; for frames after the newest keyframe it is corrected(). Without keyframes:
   /// odom_T_body. The end-of-run trajectory (rsrio-replay's estimate_final.tum), not causal.
   gtsam::Pose3 revised(double t, const gtsam::Pose3& odom_T_body) const;
@@ -477,6 +497,8 @@ class Backend {
   void mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable = nullptr);
   KeyframeRender render_keyframe(std::size_t k, const std::vector<char>* drawable);
   void update_correction();
+  // The correction as of keyframe k: its refined pose composed with the frontend's motion since.
+  OdomCorrection correction_at(const Keyframe& k) const;
   /// Revisit alignment of the newest keyframe k (options' loop_*): match, and when accepted, a
   /// loop constraint, the pose graph, and the keyframes and their Gaussians moved.
   void align_revisit(std::size_t k);
@@ -496,7 +518,7 @@ class Backend {
   std::vector<std::int32_t> anchors_;  // per Gaussian: the keyframe that created it (loop corrections move it with it)
   std::vector<LoopConstraint> loops_;
   std::size_t last_loop_attempt_ = 0;
-  Eigen::Isometry3d map_T_odom_ = Eigen::Isometry3d::Identity();
+  OdomCorrection correction_;
   BackendStats stats_;
   // The previous frame (for the frontend's instantaneous velocity).
   bool have_previous_ = false;
