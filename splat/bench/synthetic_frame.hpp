@@ -1,7 +1,7 @@
 // What the DSP would give for a world of Gaussians seen from a radar pose: the benchmarks'
 // stand-in for the simulator (rsrio-splat-bench's walk through a room, rsrio-splat-hour-bench's
 // hour along a corridor), so that the backend gets the work of a real stretch without the cost of
-// simulating it. The images are the backend's own renderers' (RA, then RD from that RA at the
+// simulating it; splat_backend_test's synthetic walks use it too. The images are the backend's own renderers' (RA, then RD from that RA at the
 // radar's velocity with the DSP's Doppler lobe), on the DSP's full grid (the backend cuts them).
 #pragma once
 
@@ -35,7 +35,7 @@ class FrameSynthesiser {
     for (std::size_t i = 0; i < world.size(); i += point_stride) {
       const Eigen::Vector3d p = world_T_radar.inverse() * world.mean(i);
       const double r = p.norm();
-      if (p.x() < 0.3 || r > max_point_range_m) continue;
+      if (p.x() <= 0.3 || r > max_point_range_m) continue;
       DspPoint d;
       d.x = static_cast<float>(p.x());
       d.y = static_cast<float>(p.y());
@@ -45,6 +45,7 @@ class FrameSynthesiser {
       d.azimuth_bin = static_cast<float>(grid_.sin_to_azimuth_bin(p.y() / r));
       d.doppler_mps = static_cast<float>(-p.dot(velocity) / r);
       d.snr_db = 20;
+      d.power = 1;  // what the backend falls back on where the RA cell is empty
       frame_.points.push_back(d);
     }
     return frame_;

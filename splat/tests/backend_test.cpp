@@ -23,6 +23,7 @@
 #include "rsrio/splat/backend.hpp"
 #include "rsrio/splat/image_dump.hpp"
 #include "splat_test_support.hpp"
+#include "synthetic_frame.hpp"
 
 using namespace rsrio::splat;
 using namespace rsrio::splat::test;
@@ -65,36 +66,11 @@ GaussianScene make_world(std::uint64_t seed) {
 using SyntheticFrame = rsrio::DspImages;
 
 // What the DSP would give for the world seen from world_T_radar moving with `velocity` (radar
-// frame): rendered RA, RD, and one point per visible Gaussian.
+// frame): rendered RA, RD, and one point per visible Gaussian within 90 % of the grid's range.
 SyntheticFrame synthesise(const GaussianScene& world, const RadarImageGrid& grid, const Eigen::Isometry3d& world_T_radar,
                           const Eigen::Vector3d& velocity) {
-  RaRenderer<float> ra_renderer(grid);
-  RdRenderOptions rdo;  // the backend's default kernel: the DSP's Doppler lobe (hann)
-  rdo.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
-  RdRenderer<float> rd_renderer(grid, rdo);
-  Image<float> ra, rd;
-  ra_renderer.render(world, world_T_radar.inverse(), ra);
-  rd_renderer.render(ra, velocity, rd);
-  SyntheticFrame f;
-  f.ra.assign(ra.data(), ra.data() + ra.size());
-  f.rd.assign(rd.data(), rd.data() + rd.size());
-  for (std::size_t i = 0; i < world.size(); ++i) {
-    const Eigen::Vector3d p = world_T_radar.inverse() * world.mean(i);
-    const double r = p.norm();
-    if (p.x() <= 0.3 || r > grid.range_bins * grid.range_bin_m * 0.9) continue;
-    rsrio::DspPoint d;
-    d.x = static_cast<float>(p.x());
-    d.y = static_cast<float>(p.y());
-    d.z = static_cast<float>(p.z());
-    d.range_m = static_cast<float>(r);
-    d.range_bin = static_cast<float>(grid.range_to_bin(r));
-    d.azimuth_bin = static_cast<float>(grid.sin_to_azimuth_bin(p.y() / r));
-    d.doppler_mps = static_cast<float>(-p.dot(velocity) / r);
-    d.snr_db = 20;
-    d.power = 1;
-    f.points.push_back(d);
-  }
-  return f;
+  bench::FrameSynthesiser synthesiser(grid);
+  return synthesiser.render(world, world_T_radar, velocity, 1, grid.range_bins * grid.range_bin_m * 0.9);
 }
 
 // The xwr1843 the synthetic walks use, its grids, and a room of Gaussians.
