@@ -635,6 +635,7 @@ int main(int argc, char** argv) {
          << ", \"final_ba_s\": " << st.final_ba.total_s << ", \"final_ba_iterations\": " << st.final_ba.iterations
          << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted
          << ", \"keyframe_points_evicted\": " << st.keyframe_points_evicted
+         << ", \"keyframes_dropped\": " << st.keyframes_dropped
          << ", \"loop_attempts\": " << st.loop_attempts << ", \"loop_closures\": " << st.loop_closures
          << ", \"loop_rejected_score\": " << st.loop_rejected_score
          << ", \"loop_rejected_ambiguous\": " << st.loop_rejected_ambiguous

@@ -1,12 +1,13 @@
 // rsrio-splat-hour-bench: the backend's memory over an hour of operation (SPEC Sec. 9: a map
 // that covers an hour of operation must not grow without bound).
 //
-// splat::Backend with its default options (the caps: max_gaussians, max_keyframe_images) on the
+// splat::Backend with its default options (the caps: max_gaussians, max_keyframe_images,
+// max_keyframe_points, max_keyframes) on the
 // cascade's grid follows a walk at 1 m/s, weaving +-0.5 m, along an endless corridor with new
 // walls and clutter every metre: exploration, where the map grows (a revisit adds keyframes, not
 // Gaussians). A keyframe every 0.4 m: 9000 an hour. The stages' iteration counts are cut to
 // --iterations (no time budgets) so that the hour runs in minutes; what the backend holds does
-// not depend on them. Every --every minutes of walk it prints the keyframes, those that still hold
+// not depend on them. Every --every minutes of walk it prints the keyframes made and kept, those that still hold
 // their images and their static points (with the mean points a keyframe keeps), the Gaussians,
 // the heap in use (glibc's mallinfo2: allocated and not freed), the
 // resident set, and the backend's mean time per keyframe over the interval (a time that grows
@@ -131,13 +132,13 @@ int main(int argc, char** argv) {
   std::printf("rsrio-splat-hour-bench: the backend (default options, mmwcas grid %d x %d, %d Doppler bins, %.1f m) "
               "walking 1 m/s along an endless corridor (~52 scatterers a metre) for %.0f min; stages at %d "
               "iterations; caps: max_gaussians %d, max_keyframe_images %d (%.0f kB of images each: measured and "
-              "compressed RA and RD), max_keyframe_points %d\n\n",
+              "compressed RA and RD), max_keyframe_points %d, max_keyframes %d\n\n",
               grid.range_bins, grid.azimuth_bins, grid.doppler_bins, range_m, args.minutes, args.iterations,
-              o.max_gaussians, o.max_keyframe_images, image_kb, o.max_keyframe_points);
-  std::printf("| walk (min) | keyframes | with images | with points (mean) | Gaussians | heap in use (MB) | resident (MB) | "
-              "ms / keyframe |\n");
-  std::printf("|------------|-----------|-------------|--------------------|-----------|------------------|---------------|"
-              "---------------|\n");
+              o.max_gaussians, o.max_keyframe_images, image_kb, o.max_keyframe_points, o.max_keyframes);
+  std::printf("| walk (min) | keyframes (kept) | with images | with points (mean) | Gaussians | heap in use (MB) | "
+              "resident (MB) | ms / keyframe |\n");
+  std::printf("|------------|------------------|-------------|--------------------|-----------|------------------|"
+              "---------------|---------------|\n");
 
   const double dt = 0.1, speed = 1.0;
   const long frames = std::lround(args.minutes * 60.0 / dt);
@@ -186,8 +187,9 @@ int main(int argc, char** argv) {
         points += kf.points.size();
       }
       const double heap = heap_in_use_mb();
-      std::printf("| %10.1f | %9zu | %11zu | %9zu (%5.0f) | %9zu | %16.1f | %13.1f | %13.1f |\n", t / 60.0,
-                  backend.keyframes().size(), with_images, with_points,
+      std::printf("| %10.1f | %6llu (%6zu) | %11zu | %9zu (%5.0f) | %9zu | %16.1f | %13.1f | %13.1f |\n", t / 60.0,
+                  static_cast<unsigned long long>(backend.stats().keyframes), backend.keyframes().size(), with_images,
+                  with_points,
                   static_cast<double>(points) / static_cast<double>(std::max<std::size_t>(1, with_points)),
                   backend.scene().size(), heap, resident_mb(),
                   1e3 * interval_s / static_cast<double>(std::max<std::size_t>(1, interval_keyframes)));
@@ -195,16 +197,16 @@ int main(int argc, char** argv) {
       interval_s = 0;
       interval_keyframes = 0;
       if (late_keyframes == 0 && 4 * k >= 3 * frames) {
-        late_keyframes = backend.keyframes().size();
+        late_keyframes = backend.stats().keyframes;
         late_heap = heap;
       }
     }
   }
   const double heap_end = heap_in_use_mb();
-  const std::size_t keyframes_end = backend.keyframes().size();
+  const std::size_t keyframes_end = backend.stats().keyframes;
   std::printf("\nheap in use: %.1f MB before the backend's first frame, %.1f MB at the end; over the last quarter of "
-              "the walk %+.0f bytes per keyframe (a keyframe without its images and points: %zu bytes, plus the "
-              "vector's spare capacity); nan guard hits %llu\n",
+              "the walk %+.0f bytes per keyframe made (a keyframe kept without its images and points: %zu bytes, "
+              "until max_keyframes drops the oldest of those); nan guard hits %llu\n",
               heap_start, heap_end,
               keyframes_end > late_keyframes
                   ? (heap_end - late_heap) * 1024.0 * 1024.0 / static_cast<double>(keyframes_end - late_keyframes)

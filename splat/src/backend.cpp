@@ -137,6 +137,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("max_gaussians", o.max_gaussians, {1, 100'000'000});
   node.read("max_keyframe_images", o.max_keyframe_images, {1, 100'000'000});
   node.read("max_keyframe_points", o.max_keyframe_points, {1, 100'000'000});
+  node.read("max_keyframes", o.max_keyframes, {1, 100'000'000});
   node.read("init_scale_m", o.init_scale_m, {1e-4, 10.0});
   node.read("init_min_spacing_m", o.init_min_spacing_m, {0.0, 10.0});
   node.read("static_doppler_tolerance_mps", o.static_doppler_tolerance_mps, {0.0, 100.0});
@@ -242,6 +243,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  max_gaussians: " << o.max_gaussians << "\n"
       << "  max_keyframe_images: " << o.max_keyframe_images << "\n"
       << "  max_keyframe_points: " << o.max_keyframe_points << "\n"
+      << "  max_keyframes: " << o.max_keyframes << "\n"
       << "  init_scale_m: " << o.init_scale_m << "\n"
       << "  init_min_spacing_m: " << o.init_min_spacing_m << "\n"
       << "  static_doppler_tolerance_mps: " << o.static_doppler_tolerance_mps << "\n"
@@ -287,6 +289,8 @@ void validate(const BackendOptions& o, const std::string& file) {
     fail("max_keyframe_images", "an integer >= mapping_keyframes and ba_max_keyframes (those keep their images)");
   if (o.max_keyframe_points < o.max_keyframe_images || (o.loop_closure && o.max_keyframe_points < o.loop_query_keyframes))
     fail("max_keyframe_points", "an integer >= max_keyframe_images and loop_query_keyframes (points outlive images)");
+  if (o.max_keyframes <= o.max_keyframe_points)
+    fail("max_keyframes", "an integer > max_keyframe_points (only keyframes without images and points are dropped)");
   if (o.odometry_prior && !(o.odometry_prior_sigma_m > 0)) fail("odometry_prior_sigma_m", "a number > 0");
   if (o.odometry_prior && !(o.odometry_prior_sigma_deg > 0)) fail("odometry_prior_sigma_deg", "a number > 0");
   if (!(o.loop.cell_m > 0)) fail("loop_match.cell_m", "a number > 0");
@@ -540,8 +544,8 @@ bool Backend::add_frame(const BackendFrame& frame) {
   kf.t = frame.t;
   kf.odom_T_body = odom_T_body;
   kf.world_T_radar = correction_.map_T_odom * odom_T_radar;
-  if (options_.level_floor && !keyframes_.empty())
-    kf.world_T_radar.translation().z() = keyframes_.front().world_T_radar.translation().z();
+  if (keyframes_.empty()) floor_z_ = kf.world_T_radar.translation().z();
+  if (options_.level_floor) kf.world_T_radar.translation().z() = floor_z_;
   kf.z_reference = kf.world_T_radar.translation().z();
   // Row-major [range][column]: the first range_bins rows are the cut grid's image.
   kf.ra = Eigen::Map<const Image<float>>(frame.dsp->ra.data(), grid_.range_bins, grid_.azimuth_bins);
@@ -552,6 +556,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   const bool first = keyframes_.empty();
   if (first) {
     kf.velocity_correction = v_odom;
+    kf.chain_start = true;
     start_map(kf);
   } else {
     const Keyframe& prev = keyframes_.back();
@@ -601,6 +606,7 @@ bool Backend::add_frame(const BackendFrame& frame) {
   }
   cleanup_scene();
   evict_keyframe_data();
+  drop_bare_keyframes();
   update_correction();
   stats_.gaussians = scene_.size();
   return true;
@@ -726,7 +732,7 @@ std::vector<std::size_t> Backend::ba_window() const {
 
 Eigen::Vector3d Backend::velocity_of(std::size_t k, RadarVelocity* jacobians) const {
   const Keyframe& kf = keyframes_[k];
-  if (k == 0) {
+  if (k == 0 || kf.chain_start) {
     if (jacobians != nullptr) *jacobians = RadarVelocity{kf.velocity_correction, Matrix36d::Zero(), Matrix36d::Zero()};
     return kf.velocity_correction;
   }
@@ -947,8 +953,8 @@ double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std:
     if (pose_row[b] >= 0) grad_left[static_cast<std::size_t>(pose_row[b])] += left_increment_jacobian(pb) * gb;
   };
   for (const std::size_t k : poses) {
-    if (k > 0) pair(k - 1, k);
-    if (k + 1 < keyframes_.size() && pose_row[k + 1] < 0) pair(k, k + 1);
+    if (k > 0 && !keyframes_[k].chain_start) pair(k - 1, k);
+    if (k + 1 < keyframes_.size() && pose_row[k + 1] < 0 && !keyframes_[k + 1].chain_start) pair(k, k + 1);
     if (options_.odometry_yaw_sigma_deg > 0) {
       const PlanarPose p = planar(keyframes_[k].world_T_radar);
       Eigen::Vector3d g = Eigen::Vector3d::Zero();
@@ -1010,6 +1016,51 @@ void Backend::evict_keyframe_data() {
         kf.points = std::vector<Eigen::Vector3f>();
         ++stats_.keyframe_points_evicted;
       });
+}
+
+void Backend::drop_bare_keyframes() {
+  const auto cap = static_cast<std::size_t>(options_.max_keyframes);
+  if (keyframes_.size() <= cap) return;
+  // A tenth of the cap at a time, so that the anchors (one per Gaussian) are renumbered once per
+  // batch, not once per keyframe. Bare: no images, no points; the newest are never bare (the
+  // eviction keeps the windows' and the revisit query's), and validate() keeps max_keyframes
+  // above max_keyframe_points, so there are always bare keyframes to drop.
+  const std::size_t excess = keyframes_.size() - cap + cap / 10;
+  std::vector<std::int64_t> new_index(keyframes_.size(), -1);
+  std::size_t dropped = 0, kept = 0;
+  bool previous_dropped = false;
+  for (std::size_t i = 0; i < keyframes_.size(); ++i) {
+    Keyframe& kf = keyframes_[i];
+    if (dropped < excess && i + 1 < keyframes_.size() && !kf.has_images() && kf.points.empty()) {
+      ++dropped;
+      previous_dropped = true;
+      continue;
+    }
+    if (previous_dropped && !kf.chain_start) {
+      kf.velocity_correction = velocity_of(i, nullptr);  // before its predecessor goes
+      kf.chain_start = true;
+    }
+    previous_dropped = false;
+    new_index[i] = static_cast<std::int64_t>(kept++);
+  }
+  if (dropped == 0) return;
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < keyframes_.size(); ++i)
+    if (new_index[i] >= 0) {
+      if (out != i) keyframes_[out] = std::move(keyframes_[i]);
+      ++out;
+    }
+  keyframes_.resize(out);  // no reallocation: the capacity stays, bounded by the cap
+  for (std::int32_t& a : anchors_)
+    if (a >= 0) a = static_cast<std::int32_t>(new_index[static_cast<std::size_t>(a)]);
+  std::erase_if(loops_, [&](const LoopConstraint& l) { return new_index[l.from] < 0 || new_index[l.to] < 0; });
+  for (LoopConstraint& l : loops_) {
+    l.from = static_cast<std::size_t>(new_index[l.from]);
+    l.to = static_cast<std::size_t>(new_index[l.to]);
+  }
+  last_loop_attempt_ =
+      new_index[last_loop_attempt_] >= 0 ? static_cast<std::size_t>(new_index[last_loop_attempt_]) : 0;
+  stats_.keyframes_dropped += dropped;
 }
 
 void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_rendered_c, double knee, int margin,

@@ -256,6 +256,13 @@ struct BackendOptions {
   // keyframes are 2 km of path, about what max_gaussians covers: an older pass has no Gaussians
   // left to align against.
   int max_keyframe_points = 5000;
+  // Keyframes kept at all: beyond it the oldest that hold neither images nor points (a pose, 448
+  // bytes, that no stage and no revisit uses any more) are dropped, a tenth of the cap at a time.
+  // Their Gaussians stay in the map (loop closures no longer move them), their loops leave the
+  // pose graph, and the end-of-run trajectory (revised()) takes a dropped stretch's frames from the
+  // keyframe before it. 6000 keyframes are 2.4 km of path at 0.4 m; the keyframe after a dropped
+  // one starts a new chain (Keyframe::chain_start).
+  int max_keyframes = 6000;
   double init_scale_m = 0.1;
   double init_min_spacing_m = 0.1;     // a CFAR point this near an existing Gaussian adds none
   double static_doppler_tolerance_mps = 0.3;  // points moving relative to the world add none
@@ -306,6 +313,7 @@ struct BackendStats {
   std::uint64_t points_rejected_dynamic = 0;
   std::uint64_t keyframe_images_evicted = 0;  // keyframes whose images were dropped (max_keyframe_images)
   std::uint64_t keyframe_points_evicted = 0;  // keyframes whose static points were dropped (max_keyframe_points)
+  std::uint64_t keyframes_dropped = 0;        // keyframes dropped altogether (max_keyframes)
   // Revisit alignment: matches tried, loops closed, and matches refused (each reason counted).
   std::uint64_t loop_attempts = 0, loop_closures = 0;
   std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
@@ -330,6 +338,10 @@ struct Keyframe {
   // reference is the frontend's heading plus it (a loop correction is not undone by the prior).
   double loop_yaw = 0;
   double z_reference = 0;  // the height it started at (the 6-DoF vertical prior's)
+  // The keyframe before it was dropped (max_keyframes), or it is the first: its RD velocity is
+  // velocity_correction alone (frozen at what it was), and no odometry pair prior ties it to the
+  // keyframe now before it.
+  bool chain_start = false;
   bool has_images() const { return ra.size() > 0; }  // false once evicted (max_keyframe_images)
 };
 
@@ -447,7 +459,8 @@ class Backend {
   std::vector<std::pair<double, gtsam::Pose3>> keyframe_poses() const;
   /// The pose of the frame at time t (frontend pose odom_T_body) as the map has it NOW, not as it
   /// was published: the refined pose of the last keyframe at or before t (the first keyframe for
-  /// earlier frames) composed with the frontend's motion since that keyframe (on a level floor
+  /// earlier frames; the keyframe before a stretch that max_keyframes dropped for the frames in it)
+  /// composed with the frontend's motion since that keyframe (on a level floor
   /// without its vertical part, as corrected()). Later BA and loop
   /// closures move it; for frames after the newest keyframe it is corrected(). Without keyframes:
   /// odom_T_body. The end-of-run trajectory (rsrio-replay's estimate_final.tum), not causal.
@@ -492,6 +505,8 @@ class Backend {
   Eigen::Vector3d velocity_of(std::size_t k, RadarVelocity* jacobians) const;
   void cleanup_scene();
   void evict_keyframe_data();
+  /// max_keyframes: drops the oldest bare keyframes and renumbers the anchors and loops.
+  void drop_bare_keyframes();
   /// The newest keyframe's targets for pose refinement (pose_coverage_mask): where the map renders
   /// nothing near, the rendered image itself.
   void mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable = nullptr);
@@ -518,6 +533,7 @@ class Backend {
   std::vector<std::int32_t> anchors_;  // per Gaussian: the keyframe that created it (loop corrections move it with it)
   std::vector<LoopConstraint> loops_;
   std::size_t last_loop_attempt_ = 0;
+  double floor_z_ = 0;  // the first keyframe's radar height (level_floor)
   OdomCorrection correction_;
   BackendStats stats_;
   // The previous frame (for the frontend's instantaneous velocity).
