@@ -36,7 +36,8 @@ struct PoseOutput {
   std::array<double, 36> pose_covariance{};   // ROS order: x y z, rot x y z; row-major
   std::array<double, 36> twist_covariance{};
   bool radar_used = false;              // this frame's ego-velocity entered the estimate
-  // With the backend: map_T_odom * the pose above (PoseStamped in map_frame_id).
+  // With the backend: the pose above corrected (splat::OdomCorrection: map_T_odom *, at its
+  // keyframe's height on a level floor; PoseStamped in map_frame_id).
   bool has_map_pose = false;
   std::array<double, 3> map_position{};
   std::array<double, 4> map_orientation{0, 0, 0, 1};
