@@ -705,20 +705,12 @@ TEST_CASE("Backend: without a frontend, frames given at its own prediction are t
 
 TEST_CASE("OdomCorrection: on a level floor a pose keeps its keyframe's height and moves as the frontend otherwise",
           "[splat][backend]") {
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto random_pose = [&] {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = (Eigen::AngleAxisd(3.0 * u(rng), Eigen::Vector3d::UnitZ()) *
-                  Eigen::AngleAxisd(0.05 * u(rng), Eigen::Vector3d::UnitY()) *
-                  Eigen::AngleAxisd(0.05 * u(rng), Eigen::Vector3d::UnitX()))
-                     .toRotationMatrix();
-    T.translation() = Eigen::Vector3d(5 * u(rng), 5 * u(rng), 0.3 * u(rng));
-    return T;
-  };
+  std::mt19937_64 rng(11);
+  // Up to 5 m and 0.3 rad about each axis: tilted, so the frontend's vertical and the map's differ.
+  auto random_pose = [&] { return test::random_pose(rng, 5.0, 0.3); };
   for (int trial = 0; trial < 20; ++trial) {
     OdomCorrection c;
-    c.map_T_odom = random_pose();  // tilted: the frontend's vertical and the map's differ
+    c.map_T_odom = random_pose();
     const Eigen::Isometry3d odom_T_keyframe = random_pose();
     c.keyframe_odom_position = odom_T_keyframe.translation();
     const Eigen::Isometry3d odom_T_body = random_pose();
