@@ -14,6 +14,7 @@
 #include "rsrio/common/options.hpp"
 #include "rsrio/dsp/cfar.hpp"
 #include "rsrio/dsp/fftw.hpp"
+#include "rsrio/dsp/peak_interpolation.hpp"
 #include "rsrio/dsp/window.hpp"
 
 namespace rsrio {
@@ -29,16 +30,6 @@ inline cf cmul(cf a, cf b) {
 }
 inline float power(cf a) {
   return a.real() * a.real() + a.imag() * a.imag();
-}
-
-// Sub-bin offset of a peak from three powers (Gaussian fit = parabola through the logs), in
-// [-0.5, 0.5]; 0 when the centre is not a strict maximum or a value is not positive.
-float gaussian_offset(float left, float centre, float right) {
-  if (!(left > 0 && centre > 0 && right > 0) || centre < left || centre < right) return 0.f;
-  const double l = std::log(left), c = std::log(centre), r = std::log(right);
-  const double den = l - 2 * c + r;
-  if (!(den < 0)) return 0.f;
-  return static_cast<float>(std::clamp(0.5 * (l - r) / den, -0.5, 0.5));
 }
 
 constexpr int kMaxAnglePeaks = 16;
@@ -76,6 +67,8 @@ struct DspProcessor::Impl {
   double angle_w2 = 0;                  // sum of the squared unit-sum angle window
   std::vector<int> el_pos, el_chan;     // filled array
   std::vector<unsigned char> az_valid;  // |sin| <= 1
+  // Sub-bin peaks of points (make_points), each for its FFT's taps (DspOptions::interpolation).
+  PeakInterpolator range_peak, doppler_peak, azimuth_peak;
 
   AlignedBuffer<cf> rin, rout;          // [N_d][N_r]: one channel's chirps (rows >= L stay zero)
   AlignedBuffer<cf> mean_in, mean_out;  // the channel's mean chirp and its range FFT (clutter)
@@ -219,6 +212,14 @@ DspProcessor::Impl::Impl(const RadarConfig& c, const DspOptions& o) : config(c),
   const std::vector<double> wa = make_window(opt.angle_window, span);
   double wa_sum = 0;
   for (int p : el_pos) wa_sum += wa[p];
+  if (opt.interpolation == "calibrated") {
+    // The calibration, channel frequency offsets and fftshift signs move a tone, not its shape.
+    range_peak = PeakInterpolator(wr, Nr);
+    doppler_peak = PeakInterpolator(wd, Nd);
+    std::vector<double> aperture;
+    for (int p : el_pos) aperture.push_back(wa[p]);
+    azimuth_peak = PeakInterpolator(aperture, el_pos, Na);
+  }
   angle_g.resize(el_pos.size() * Nd);
   for (std::size_t i = 0; i < el_pos.size(); ++i) {
     const int p = el_pos[i];
@@ -760,9 +761,9 @@ void DspProcessor::Impl::make_points() {
       const float peak = rad_at(r, a, dp);
       float da = 0, dr = 0, ddp = 0;
       if (opt.interpolate) {
-        if (Na > 2) da = gaussian_offset(rad_at(r, (a - 1 + Na) % Na, d), pv[i], rad_at(r, (a + 1) % Na, d));
-        if (r > 0 && r + 1 < Nr) dr = gaussian_offset(rad_at(r - 1, a, dp), peak, rad_at(r + 1, a, dp));
-        if (Nd > 2) ddp = gaussian_offset(rad_at(r, a, (dp - 1 + Nd) % Nd), peak, rad_at(r, a, (dp + 1) % Nd));
+        if (Na > 2) da = azimuth_peak.offset(rad_at(r, (a - 1 + Na) % Na, d), pv[i], rad_at(r, (a + 1) % Na, d));
+        if (r > 0 && r + 1 < Nr) dr = range_peak.offset(rad_at(r - 1, a, dp), peak, rad_at(r + 1, a, dp));
+        if (Nd > 2) ddp = doppler_peak.offset(rad_at(r, a, (dp - 1 + Nd) % Nd), peak, rad_at(r, a, (dp + 1) % Nd));
       }
       DspPoint pt;
       pt.detection = static_cast<int>(j);

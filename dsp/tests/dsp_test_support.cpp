@@ -34,7 +34,7 @@ AdcCube synthesize(const RadarConfig& config, const std::vector<PointTarget>& ta
             const double uy = std::cos(el) * std::sin(az), uz = std::sin(el);
             const double range = tg.range_m + tg.velocity_mps * t;
             const double fb = 2 * slope * range / kSpeedOfLight;
-            const double phase = 2 * pi * fb * n / fs + 4 * pi * range / lambda -
+            const double phase = 2 * pi * fb * (n - N / 2.0) / fs + 4 * pi * range / lambda -
                                  2 * pi * dsp_d * (vc.azimuth * uy + vc.elevation * uz);
             s += tg.amplitude * std::polar(1.0, phase);
           }

@@ -32,6 +32,25 @@ sim::RadarModelOptions quiet_model() {
   return m;
 }
 
+// One point scatterer (0.05 m^2) at `at`, nothing else.
+sim::Scene point_scene(const Eigen::Vector3d& at) {
+  sim::SceneOptions so;
+  sim::ClutterOptions c;
+  c.region = Eigen::Vector4d(at.x(), at.y(), at.x(), at.y());
+  c.z_min_m = c.z_max_m = at.z();
+  c.count = 1;
+  c.rcs_m2 = 0.05;
+  so.clutter.push_back(c);
+  return sim::Scene(so);
+}
+
+const DspPoint* strongest(const DspResult& r) {
+  const DspPoint* best = nullptr;
+  for (const DspPoint& p : r.points)
+    if (best == nullptr || p.power > best->power) best = &p;
+  return best;
+}
+
 }  // namespace
 
 TEST_CASE("ego-velocity: a near point's DSP Doppler is the radar's own at the DSP's angle", "[ego_velocity][sim]") {
@@ -43,23 +62,13 @@ TEST_CASE("ego-velocity: a near point's DSP Doppler is the radar's own at the DS
   for (const double az_deg : {-40.0, 40.0}) {
     INFO("target at " << az_deg << " deg, 1.6 m");
     const Eigen::Vector3d target = kStart + 1.6 * Eigen::Vector3d(std::cos(az_deg * kDeg), std::sin(az_deg * kDeg), 0);
-    sim::SceneOptions so;
-    sim::ClutterOptions c;
-    c.region = Eigen::Vector4d(target.x(), target.y(), target.x(), target.y());
-    c.z_min_m = c.z_max_m = target.z();
-    c.count = 1;
-    c.rcs_m2 = 0.05;
-    so.clutter.push_back(c);
-    const sim::Scene scene(so);
+    const sim::Scene scene = point_scene(target);
     sim::RadarSimulator radar(config, quiet_model(), scene, motion, sim::Mount{}, 3, 1);
     double doppler_error = 0, angle_error = 0;
     const int frames = 6;
     for (int k = 0; k < frames; ++k) {
       radar.simulate(k, cube);
-      const DspResult& r = dsp.process(cube);
-      const DspPoint* best = nullptr;
-      for (const DspPoint& p : r.points)
-        if (best == nullptr || p.power > best->power) best = &p;
+      const DspPoint* best = strongest(dsp.process(cube));
       REQUIRE(best != nullptr);
       const Eigen::Vector3d rel = target - motion.state(radar.frame_start(k) + der.frame_active_time_s / 2).position;
       const Eigen::Vector3d u = Eigen::Vector3d(best->x, best->y, best->z).normalized();
@@ -68,6 +77,33 @@ TEST_CASE("ego-velocity: a near point's DSP Doppler is the radar's own at the DS
     }
     CHECK(std::abs(angle_error) < 0.1);
     CHECK(std::abs(doppler_error) < 0.003);  // 0.0097 / 0.0099 m/s off with antenna 0 as the reference
+  }
+}
+
+TEST_CASE("ego-velocity: a point ahead has the radar's speed at every fraction of a Doppler bin",
+          "[ego_velocity][sim][interpolation]") {
+  // At 0.38-0.44 m/s the cascade's return from ahead falls 0.72, 0.87, 0.01 and 0.15 of the way
+  // through a Doppler bin (0.139 m/s). The plain Gaussian fit gave 0.9935, 0.9963, 1.0004,
+  // 1.0038 of the speed (DspOptions::interpolation "gaussian"), the calibrated fit within 1e-4.
+  const RadarConfig config = radar_preset("mmwcas");
+  const RadarDerived der = derive(config);
+  DspProcessor dsp(config, DspOptions{});
+  AdcCube cube = AdcCube::for_config(config);
+  const Eigen::Vector3d target = kStart + Eigen::Vector3d(4.0, 0, 0);
+  const sim::Scene scene = point_scene(target);
+  for (const double speed : {0.38, 0.40, 0.42, 0.44}) {
+    const sim::LinearMotion motion(kStart, Eigen::Vector3d(speed, 0, 0), Eigen::Matrix3d::Identity(), 10);
+    sim::RadarSimulator radar(config, quiet_model(), scene, motion, sim::Mount{}, 3, 1);
+    double doppler = 0;
+    const int frames = 4;
+    for (int k = 0; k < frames; ++k) {
+      radar.simulate(k, cube);
+      const DspPoint* best = strongest(dsp.process(cube));
+      REQUIRE(best != nullptr);
+      doppler += best->doppler_mps / frames;
+    }
+    INFO("speed " << speed << " m/s (" << speed / der.velocity_bin_size_mps << " bins): Doppler " << doppler);
+    CHECK(std::abs(-doppler / speed - 1) < 1e-3);
   }
 }
 

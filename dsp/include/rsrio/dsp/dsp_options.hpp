@@ -10,6 +10,7 @@
 //     calibration: true           # apply radar.calibration (complex gain, frequency offset)
 //     fft_planning: estimate      # estimate | measure (see rsrio/dsp/fftw.hpp)
 //     interpolate: true           # sub-bin range / Doppler / azimuth of points
+//     interpolation: calibrated   # calibrated | gaussian (the three-bin fit: peak_interpolation.hpp)
 //     doppler_own_peak: false     # each azimuth peak's Doppler from its own Doppler peak (processor.hpp)
 //     max_angle_peaks: 2          # azimuth peaks per range-Doppler detection
 //     angle_peak_db: 10.0         # further azimuth peaks within this many dB of the strongest
@@ -62,6 +63,10 @@ struct DspOptions {
   bool calibration = true;
   std::string fft_planning = "estimate";
   bool interpolate = true;
+  // The three-bin log-parabola fit, mapped back through what it gives for a single tone under
+  // the FFT's own window ("calibrated"), or as it is ("gaussian": biased by up to 0.02 bins,
+  // towards the middle between two bins; rsrio/dsp/peak_interpolation.hpp).
+  std::string interpolation = "calibrated";
   // Off by default: the cascade's ego-velocity is half as noisy frame to frame with it, but the
   // simulated walks' frontend was not better (README, DSP).
   bool doppler_own_peak = false;

@@ -7,7 +7,7 @@
 // For loop m (0..L-1), TDM slot k (0..N_tx-1, TX id tx_order[k]), RX channel r, fast-time
 // sample n (0..N_s-1), a sum over point scatterers i plus noise:
 //
-//   s[m][k][r][n] = sum_i a_i exp( j * ( 2 pi f_b,i n / f_s
+//   s[m][k][r][n] = sum_i a_i exp( j * ( 2 pi f_b,i (n - N_s / 2) / f_s
 //                                      + 4 pi R_i(t_mk) / lambda
 //                                      - 2 pi d (p_az(k,r) u_y,i + p_el(k,r) u_z,i) ) ) + w
 //
@@ -32,8 +32,11 @@
 // rsrio-sim point scatterers through this DSP: range, azimuth, elevation and Doppler, signs
 // included, agree within a fraction of a bin for both presets.)
 //
-// Any constant phase (e.g. 2 pi f_b t_adc, or 2 pi f_0 tau instead of 4 pi R / lambda) is
-// harmless. The TDM artefact is the slot term: virtual channel of slot k carries the extra phase
+// The beat term is referred to the middle sample, where the sweep is at f_c: referred to the
+// first, the carrier term would belong to the sweep's frequency there, and a moving target's
+// phase would advance as at f_c + B/2 while the DSP converts it with lambda at f_c (0.66 % of
+// the Doppler on the cascade: 0.023 bins at 3.5 bins). Any constant phase (e.g. 2 pi f_b t_adc,
+// or 2 pi f_0 tau instead of 4 pi R / lambda) is harmless. The TDM artefact is the slot term: virtual channel of slot k carries the extra phase
 // 4 pi v k T_c / lambda, which the TDM compensation removes.
 //
 // ------------------------------------------------------------------------------------------------
@@ -87,7 +90,9 @@
 // elevation are made at d', the azimuth fit at d where the peak was found (with two returns, the
 // xwr1843's 8-element array's sidelobes moved it more at d'). Each point gets, in the radar frame:
 //   range_m     (r + dr) * range bin,  dr from a Gaussian (log-parabolic) fit over RAD at d',
-//               |dr| <= 0.5
+//               |dr| <= 0.5, mapped back through what the fit gives for a single tone under the
+//               range window (DspOptions::interpolation "calibrated"; peak_interpolation.hpp;
+//               so are dd under the Doppler window and da under the filled array's aperture)
 //   doppler_mps (d' + dd - N_d/2) * velocity bin (same fit; positive = receding)
 //   u_y         (a + da - N_a/2) / (N_a d)
 //   u_z         elevation: where the array has virtual channels above the lowest row at the same
