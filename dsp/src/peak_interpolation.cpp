@@ -8,7 +8,6 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
-#include <utility>
 
 namespace rsrio {
 
@@ -30,8 +29,25 @@ double gaussian_fit(double left, double centre, double right) {
   return 0.5 * (l - r) / den;
 }
 
-PeakInterpolator::PeakInterpolator(std::span<const double> taps, std::span<const int> positions, int fft_size)
-    : taps_(taps.begin(), taps.end()), positions_(positions.begin(), positions.end()), fft_size_(fft_size) {
+namespace {
+
+// The Gaussian fit's offset for a single tone at true offset delta: the powers of bins -1, 0, 1
+// are |sum_i w_i exp(-j 2 pi (m - delta) p_i / N)|^2.
+double gaussian_fit_of_tone(std::span<const double> taps, std::span<const int> positions, int fft_size,
+                            double delta) {
+  double power[3];
+  for (int m = -1; m <= 1; ++m) {
+    std::complex<double> acc{};
+    for (std::size_t i = 0; i < taps.size(); ++i)
+      acc += taps[i] * std::polar(1.0, -2 * std::numbers::pi * (m - delta) * positions[i] / fft_size);
+    power[m + 1] = std::norm(acc);
+  }
+  return gaussian_fit(power[0], power[1], power[2]);
+}
+
+}  // namespace
+
+PeakInterpolator::PeakInterpolator(std::span<const double> taps, std::span<const int> positions, int fft_size) {
   if (taps.size() != positions.size() || taps.empty())
     throw std::invalid_argument("PeakInterpolator: " + std::to_string(taps.size()) + " taps for " +
                                 std::to_string(positions.size()) + " positions");
@@ -40,7 +56,8 @@ PeakInterpolator::PeakInterpolator(std::span<const double> taps, std::span<const
       throw std::invalid_argument("PeakInterpolator: position " + std::to_string(p) + " outside the FFT of " +
                                   std::to_string(fft_size));
   std::vector<double> fit(kSteps + 1);
-  for (int i = 0; i <= kSteps; ++i) fit[static_cast<std::size_t>(i)] = gaussian_fit_of_tone(-0.5 + double(i) / kSteps);
+  for (int i = 0; i <= kSteps; ++i)
+    fit[static_cast<std::size_t>(i)] = gaussian_fit_of_tone(taps, positions, fft_size, -0.5 + double(i) / kSteps);
   // Invertible where the fit rises strictly with the offset (NaN compares false), outwards from
   // the bin. A main lobe narrower than three bins puts the far neighbour of a tone near +-0.5
   // past the first null (the cascade's 86 elements in 128 bins: nulls 1.49 bins out), where the
@@ -62,18 +79,6 @@ PeakInterpolator::PeakInterpolator(std::span<const double> taps, int fft_size)
                          return p;
                        }(),
                        fft_size) {}
-
-double PeakInterpolator::gaussian_fit_of_tone(double delta) const {
-  // Power of the tone (at bin delta) in bins -1, 0, 1: |sum_n w_n exp(-j 2 pi (m - delta) n / N)|^2.
-  double power[3];
-  for (int m = -1; m <= 1; ++m) {
-    std::complex<double> acc{};
-    for (std::size_t i = 0; i < taps_.size(); ++i)
-      acc += taps_[i] * std::polar(1.0, -2 * std::numbers::pi * (m - delta) * positions_[i] / fft_size_);
-    power[m + 1] = std::norm(acc);
-  }
-  return gaussian_fit(power[0], power[1], power[2]);
-}
 
 double PeakInterpolator::table_low() const { return -0.5 + double(first_) / kSteps; }
 double PeakInterpolator::table_high() const {

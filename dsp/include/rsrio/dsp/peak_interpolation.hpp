@@ -37,17 +37,12 @@ class PeakInterpolator {
   /// is not a local maximum or a value is not positive.
   float offset(float left, float centre, float right) const;
 
-  /// The Gaussian fit's offset for a single tone at true offset delta (what the table holds).
-  double gaussian_fit_of_tone(double delta) const;
   bool calibrated() const { return !fit_.empty(); }
   /// The true offsets the table covers (calibrated only): -0.5 .. 0.5 but for narrow main lobes.
   double table_low() const;
   double table_high() const;
 
  private:
-  std::vector<double> taps_;
-  std::vector<int> positions_;
-  int fft_size_ = 0;
   int first_ = 0;            // fit_[i] is the fit at true offset -0.5 + (first_ + i) / 1024
   std::vector<double> fit_;  // increasing
 };
