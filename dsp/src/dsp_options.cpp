@@ -21,8 +21,7 @@ DspOptions load_dsp_options(OptionsNode& node) {
   node.read("tdm_compensation", o.tdm_compensation);
   node.read("calibration", o.calibration);
   node.read_choice("fft_planning", o.fft_planning, {"estimate", "measure"});
-  node.read("interpolate", o.interpolate);
-  node.read_choice("interpolation", o.interpolation, {"calibrated", "gaussian"});
+  node.read_choice("interpolation", o.interpolation, {"calibrated", "gaussian", "none"});
   node.read("doppler_own_peak", o.doppler_own_peak);
   node.read("max_angle_peaks", o.max_angle_peaks, {1, 16});
   node.read("angle_peak_db", o.angle_peak_db, {0.0, 60.0});
@@ -61,8 +60,8 @@ void validate(const DspOptions& o, const std::string& file) {
   window("angle_window", o.angle_window);
   if (o.fft_planning != "estimate" && o.fft_planning != "measure")
     fail("fft_planning", "one of 'estimate' 'measure', got '" + o.fft_planning + "'");
-  if (o.interpolation != "calibrated" && o.interpolation != "gaussian")
-    fail("interpolation", "one of 'calibrated' 'gaussian', got '" + o.interpolation + "'");
+  if (o.interpolation != "calibrated" && o.interpolation != "gaussian" && o.interpolation != "none")
+    fail("interpolation", "one of 'calibrated' 'gaussian' 'none', got '" + o.interpolation + "'");
   if (o.max_angle_peaks < 1 || o.max_angle_peaks > 16) fail("max_angle_peaks", "an integer in [1, 16]");
   if (!(o.angle_peak_db >= 0 && o.angle_peak_db <= 60)) fail("angle_peak_db", "a number in [0, 60]");
   const CfarOptions& c = o.cfar;
@@ -93,7 +92,6 @@ void print(std::ostream& out, const DspOptions& o) {
       << "  tdm_compensation: " << b(o.tdm_compensation) << "\n"
       << "  calibration: " << b(o.calibration) << "\n"
       << "  fft_planning: " << o.fft_planning << "\n"
-      << "  interpolate: " << b(o.interpolate) << "\n"
       << "  interpolation: " << o.interpolation << "\n"
       << "  doppler_own_peak: " << b(o.doppler_own_peak) << "\n"
       << "  max_angle_peaks: " << o.max_angle_peaks << "\n"

@@ -760,7 +760,7 @@ void DspProcessor::Impl::make_points() {
         }
       const float peak = rad_at(r, a, dp);
       float da = 0, dr = 0, ddp = 0;
-      if (opt.interpolate) {
+      if (opt.interpolation != "none") {
         if (Na > 2) da = azimuth_peak.offset(rad_at(r, (a - 1 + Na) % Na, d), pv[i], rad_at(r, (a + 1) % Na, d));
         if (r > 0 && r + 1 < Nr) dr = range_peak.offset(rad_at(r - 1, a, dp), peak, rad_at(r + 1, a, dp));
         if (Nd > 2) ddp = doppler_peak.offset(rad_at(r, a, (dp - 1 + Nd) % Nd), peak, rad_at(r, a, (dp + 1) % Nd));

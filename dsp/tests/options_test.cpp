@@ -65,7 +65,7 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
                       "dsp:\n"
                       "  range_window: blackman\n  doppler_window: hamming\n  angle_window: hann\n"
                       "  dc_removal: false\n  clutter_removal: true\n  tdm_compensation: false\n"
-                      "  calibration: false\n  fft_planning: measure\n  interpolate: false\n"
+                      "  calibration: false\n  fft_planning: measure\n  interpolation: gaussian\n"
                       "  doppler_own_peak: true\n  max_angle_peaks: 4\n  angle_peak_db: 6.5\n"
                       "  cfar:\n    type: os\n    mode: dual_pass\n    pfa: 1.0e-6\n"
                       "    guard_range: 3\n    train_range: 10\n    guard_doppler: 2\n"
@@ -79,7 +79,7 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
   CHECK_FALSE(o.tdm_compensation);
   CHECK_FALSE(o.calibration);
   CHECK(o.fft_planning == "measure");
-  CHECK_FALSE(o.interpolate);
+  CHECK(o.interpolation == "gaussian");
   CHECK(o.doppler_own_peak);
   CHECK(o.max_angle_peaks == 4);
   CHECK(o.angle_peak_db == 6.5);
@@ -107,6 +107,7 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
 
 TEST_CASE("dsp options: errors name the file and the key", "[dsp][options]") {
   expect_key_error("dsp:\n  range_window: kaiser\n", "dsp.range_window", "one of 'none' 'hann'");
+  expect_key_error("dsp:\n  interpolation: parabolic\n", "dsp.interpolation", "one of 'calibrated' 'gaussian' 'none'");
   expect_key_error("dsp:\n  clutter_removal: maybe\n", "dsp.clutter_removal", "true or false");
   expect_key_error("dsp:\n  cfar:\n    pfa: 0.5\n", "dsp.cfar.pfa", "a number in");
   expect_key_error("dsp:\n  cfar:\n    type: go\n", "dsp.cfar.type", "one of 'ca' 'os'");

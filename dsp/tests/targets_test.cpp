@@ -171,6 +171,30 @@ TEST_CASE("sub-bin range, Doppler and azimuth are unbiased across a bin", "[dsp]
   }
 }
 
+TEST_CASE("interpolation none: points sit on their bins", "[dsp][targets][interpolation]") {
+  const RadarConfig c = radar_preset("mmwcas");
+  DspOptions o;
+  o.interpolation = "none";
+  DspProcessor dsp(c, o);
+  const DspGrids& g = dsp.grids();
+  PointTarget t;  // a third of a bin off each axis's grid
+  t.range_m = 20.3 * g.range_bin_m;
+  t.velocity_mps = 3.3 * g.velocity_bin_mps;
+  t.azimuth_deg = std::asin(5.3 * g.azimuth_sin_bin) / kDeg;
+  const DspResult& res = dsp.process(rsrio::test::synthesize(c, {t}, 1.0, 5));
+  const Errors e = match(dsp, res, t);
+  REQUIRE(e.point);
+  REQUIRE_FALSE(res.points.empty());
+  for (const auto& p : res.points) {
+    CHECK(p.range_bin == std::round(p.range_bin));
+    CHECK(p.doppler_bin == std::round(p.doppler_bin));
+    CHECK(p.azimuth_bin == std::round(p.azimuth_bin));
+  }
+  // The nearest bin: a third of a bin off on each axis.
+  CHECK(std::fabs(e.range_bins - 0.3) < 0.02);
+  CHECK(std::fabs(e.velocity_bins - 0.3) < 0.02);
+}
+
 TEST_CASE("two returns of one range ring a Doppler bin apart: doppler_own_peak keeps each its own Doppler",
           "[dsp][targets]") {
   for (const char* preset : {"xwr1843", "mmwcas"}) {

@@ -9,8 +9,7 @@
 //     tdm_compensation: true      # TDM-MIMO Doppler phase compensation before the angle FFT
 //     calibration: true           # apply radar.calibration (complex gain, frequency offset)
 //     fft_planning: estimate      # estimate | measure (see rsrio/dsp/fftw.hpp)
-//     interpolate: true           # sub-bin range / Doppler / azimuth of points
-//     interpolation: calibrated   # calibrated | gaussian (the three-bin fit: peak_interpolation.hpp)
+//     interpolation: calibrated   # sub-bin points: calibrated | gaussian (peak_interpolation.hpp) | none
 //     doppler_own_peak: false     # each azimuth peak's Doppler from its own Doppler peak (processor.hpp)
 //     max_angle_peaks: 2          # azimuth peaks per range-Doppler detection
 //     angle_peak_db: 10.0         # further azimuth peaks within this many dB of the strongest
@@ -62,10 +61,10 @@ struct DspOptions {
   bool tdm_compensation = true;
   bool calibration = true;
   std::string fft_planning = "estimate";
-  bool interpolate = true;
-  // The three-bin log-parabola fit, mapped back through what it gives for a single tone under
-  // the FFT's own window ("calibrated"), or as it is ("gaussian": biased by up to 0.02 bins,
-  // towards the middle between two bins; rsrio/dsp/peak_interpolation.hpp).
+  // Sub-bin range, Doppler and azimuth of points: the three-bin log-parabola fit, mapped back
+  // through what it gives for a single tone under the FFT's own window ("calibrated"), or as it
+  // is ("gaussian": biased by up to 0.02 bins, towards the middle between two bins;
+  // rsrio/dsp/peak_interpolation.hpp), or none (each point at its bin).
   std::string interpolation = "calibrated";
   // Off by default: the cascade's ego-velocity is half as noisy frame to frame with it, but the
   // simulated walks' frontend was not better (README, DSP).
