@@ -457,6 +457,8 @@ int main(int argc, char** argv) {
                 a.path_length_m, align.c_str());
     print_stats("APE translation (m)", a.translation_m);
     print_stats("APE rotation (deg)", a.rotation_deg);
+    print_stats("  heading (deg, +left)", a.heading_deg);
+    print_stats("  tilt (deg)", a.tilt_deg);
     std::printf("%-26s %.2f %% of the path\n", "APE translation rmse", 100.0 * a.translation_m.rmse / a.path_length_m);
     char label[64];
     std::snprintf(label, sizeof label, "RPE translation (m/%gm)", d);

@@ -7,6 +7,7 @@
 #include <numeric>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 #include <Eigen/SVD>
 
@@ -149,6 +150,16 @@ namespace {
 double rotation_angle_deg(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
   return Eigen::AngleAxisd(a.conjugate() * b).angle() * 180.0 / M_PI;
 }
+
+// Heading and tilt of the world-frame error est ref^-1 (ApeResult). The twist about z of a unit
+// quaternion (w, x, y, z) is 2 atan2(z, w); the tilt is where the error sends the vertical.
+std::pair<double, double> heading_tilt_deg(const Eigen::Quaterniond& ref, const Eigen::Quaterniond& est) {
+  const Eigen::Quaterniond w = (est * ref.conjugate()).normalized();
+  double heading = 2 * std::atan2(w.z(), w.w());
+  heading = std::remainder(heading, 2 * M_PI);
+  const double up = std::clamp((w * Eigen::Vector3d::UnitZ()).z(), -1.0, 1.0);
+  return {heading * 180.0 / M_PI, std::acos(up) * 180.0 / M_PI};
+}
 }  // namespace
 
 ApeResult ape(const Trajectory& ref, const Trajectory& est, Alignment alignment) {
@@ -156,13 +167,18 @@ ApeResult ape(const Trajectory& ref, const Trajectory& est, Alignment alignment)
   ApeResult r;
   r.alignment = umeyama(ref, est, alignment);
   const Trajectory aligned = transformed(est, r.alignment);
-  std::vector<double> et, er;
+  std::vector<double> et, er, eh, ez;
   for (std::size_t i = 0; i < ref.size(); ++i) {
     et.push_back((ref[i].p - aligned[i].p).norm());
     er.push_back(rotation_angle_deg(ref[i].q, aligned[i].q));
+    const auto [heading, tilt] = heading_tilt_deg(ref[i].q, aligned[i].q);
+    eh.push_back(heading);
+    ez.push_back(tilt);
   }
   r.translation_m = stats(et);
   r.rotation_deg = stats(er);
+  r.heading_deg = stats(eh);
+  r.tilt_deg = stats(ez);
   r.path_length_m = path_length(ref);
   return r;
 }

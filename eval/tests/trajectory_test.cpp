@@ -55,6 +55,41 @@ TEST_CASE("SE(2) alignment leaves a tilt that SE(3) removes", "[eval]") {
   const auto est = transformed(ref, Eigen::Isometry3d(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX())));
   CHECK(ape(ref, est, Alignment::kSE3).translation_m.rmse == Approx(0.0).margin(1e-9));
   CHECK(ape(ref, est, Alignment::kSE2).translation_m.rmse > 0.05);
+  // The tilt SE(2) leaves is all tilt, no heading: 0.2 rad about x.
+  const auto se2 = ape(ref, est, Alignment::kSE2);
+  CHECK(se2.tilt_deg.max == Approx(0.2 * 180 / M_PI));
+  CHECK(se2.tilt_deg.min == Approx(0.2 * 180 / M_PI));
+  CHECK(se2.heading_deg.max == Approx(0.0).margin(1e-9));
+  CHECK(ape(ref, est, Alignment::kSE3).tilt_deg.max == Approx(0.0).margin(1e-6));
+}
+
+TEST_CASE("APE rotation splits into heading about the vertical and tilt", "[eval]") {
+  // Each estimated attitude turned in the world frame by a heading error (alternating sign) and
+  // then tilted about an axis that turns with the pose: Rz(h) R(axis, t) R_ref. The positions are
+  // the reference's, so no alignment moves anything.
+  const auto ref = from_points({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 2, 0}, {2, 2, 0}}, 30.0);
+  auto est = ref;
+  const double h = 0.3 * M_PI / 180, t = 0.2 * M_PI / 180;
+  for (std::size_t i = 0; i < est.size(); ++i) {
+    const double sign = i % 2 == 0 ? 1.0 : -1.0;
+    const Eigen::Vector3d axis(std::cos(0.7 * double(i)), std::sin(0.7 * double(i)), 0.0);
+    est[i].q = Eigen::AngleAxisd(sign * h, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(t, axis) * ref[i].q;
+  }
+  for (auto a : {Alignment::kNone, Alignment::kSE3}) {
+    const auto r = ape(ref, est, a);
+    CHECK(r.heading_deg.rmse == Approx(0.3));
+    CHECK(r.heading_deg.mean == Approx(0.0).margin(1e-9));
+    CHECK(r.heading_deg.max == Approx(0.3));
+    CHECK(r.heading_deg.min == Approx(-0.3));
+    CHECK(r.tilt_deg.rmse == Approx(0.2));
+    CHECK(r.tilt_deg.std == Approx(0.0).margin(1e-9));
+    // Small angles: the whole rotation is their root sum of squares.
+    CHECK(r.rotation_deg.rmse == Approx(std::hypot(0.3, 0.2)).epsilon(1e-4));
+  }
+  // A heading error across +-180 deg wraps: 179 deg one way is -181 the other.
+  auto turned = ref;
+  for (auto& p : turned) p.q = Eigen::AngleAxisd(181 * M_PI / 180, Eigen::Vector3d::UnitZ()) * p.q;
+  CHECK(ape(ref, turned, Alignment::kNone).heading_deg.mean == Approx(-179.0));
 }
 
 TEST_CASE("error statistics as numpy computes them", "[eval]") {

@@ -50,6 +50,13 @@ ErrorStats stats(std::vector<double> errors);
 struct ApeResult {
   ErrorStats translation_m;
   ErrorStats rotation_deg;
+  // The rotation error split about the world's vertical (swing-twist of R_est R_ref^T, the error
+  // in the world frame): heading_deg, its signed twist about z (positive: the estimate turned
+  // anticlockwise of the reference); tilt_deg, the angle between the two poses' up axes (roll and
+  // pitch errors, and what an alignment that tilts the whole estimate adds to them). For small
+  // errors rotation^2 = heading^2 + tilt^2. A planar radar backend refines the first; the second
+  // is its frontend's, and SE(3) alignment of a frontend whose height drifts puts its tilt here.
+  ErrorStats heading_deg, tilt_deg;
   double path_length_m = 0;  // of the reference over the associated poses
   Eigen::Isometry3d alignment = Eigen::Isometry3d::Identity();
 };
