@@ -69,6 +69,7 @@ struct DspProcessor::Impl {
   std::vector<unsigned char> az_valid;  // |sin| <= 1
   // Sub-bin peaks of points (make_points), each for its FFT's taps (DspOptions::interpolation).
   PeakInterpolator range_peak, doppler_peak, azimuth_peak;
+  bool sub_bin = true;  // interpolation != "none", resolved once, not per point
 
   AlignedBuffer<cf> rin, rout;          // [N_d][N_r]: one channel's chirps (rows >= L stay zero)
   AlignedBuffer<cf> mean_in, mean_out;  // the channel's mean chirp and its range FFT (clutter)
@@ -212,6 +213,7 @@ DspProcessor::Impl::Impl(const RadarConfig& c, const DspOptions& o) : config(c),
   const std::vector<double> wa = make_window(opt.angle_window, span);
   double wa_sum = 0;
   for (int p : el_pos) wa_sum += wa[p];
+  sub_bin = opt.interpolation != "none";
   if (opt.interpolation == "calibrated") {
     // The calibration, channel frequency offsets and fftshift signs move a tone, not its shape.
     range_peak = PeakInterpolator(wr, Nr);
@@ -760,7 +762,7 @@ void DspProcessor::Impl::make_points() {
         }
       const float peak = rad_at(r, a, dp);
       float da = 0, dr = 0, ddp = 0;
-      if (opt.interpolation != "none") {
+      if (sub_bin) {
         if (Na > 2) da = azimuth_peak.offset(rad_at(r, (a - 1 + Na) % Na, d), pv[i], rad_at(r, (a + 1) % Na, d));
         if (r > 0 && r + 1 < Nr) dr = range_peak.offset(rad_at(r - 1, a, dp), peak, rad_at(r + 1, a, dp));
         if (Nd > 2) ddp = doppler_peak.offset(rad_at(r, a, (dp - 1 + Nd) % Nd), peak, rad_at(r, a, (dp + 1) % Nd));

@@ -86,7 +86,7 @@ TEST_CASE("APE rotation splits into heading about the vertical and tilt", "[eval
     // Small angles: the whole rotation is their root sum of squares.
     CHECK(r.rotation_deg.rmse == Approx(std::hypot(0.3, 0.2)).epsilon(1e-4));
   }
-  // A heading error across +-180 deg wraps: 179 deg one way is -181 the other.
+  // A heading error past 180 deg wraps: a 181 deg turn anticlockwise is 179 deg clockwise.
   auto turned = ref;
   for (auto& p : turned) p.q = Eigen::AngleAxisd(181 * M_PI / 180, Eigen::Vector3d::UnitZ()) * p.q;
   CHECK(ape(ref, turned, Alignment::kNone).heading_deg.mean == Approx(-179.0));
