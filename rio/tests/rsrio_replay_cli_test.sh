@@ -46,6 +46,29 @@ grep -q '"recording_damage": "' "$tmp/cut/stats.json" && ok "stats: damage repor
 n=$(grep -c . "$tmp/cut/frontend.tum")
 [ "$n" -gt 10 ] && [ "$n" -lt 63 ] && ok "truncated: $n poses" || bad "truncated: $n poses"
 
+# --odometry-drift: the frontend's poses as a drifting frontend gives them. Every step 10 % long
+# makes the path 1.1 times as long; 2 deg/s turns the last pose by 2 deg/s times the time since
+# the first (to the yaw's rounding), and the first pose is the frontend's.
+path_length() { awk 'NR > 1 { d += sqrt(($2 - x)^2 + ($3 - y)^2 + ($4 - z)^2) } { x = $2; y = $3; z = $4 } END { printf "%.6f", d }' "$1"; }
+last_yaw_deg() { tail -n 1 "$1" | awk '{ printf "%.6f", atan2(2 * ($8 * $7 + $5 * $6), 1 - 2 * ($6 * $6 + $7 * $7)) * 45 / atan2(1, 1) }'; }
+check "drift scale" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/long" --config "$tmp/tiny.yaml" --odometry-drift 0,0.1
+awk -v a="$(path_length "$tmp/long/frontend.tum")" -v b="$(path_length "$tmp/out/frontend.tum")" \
+  'BEGIN { exit !(b > 1 && a / b > 1.0999 && a / b < 1.1001) }' && ok "drift: every step 10 % long" \
+  || bad "drift: path $(path_length "$tmp/long/frontend.tum") against $(path_length "$tmp/out/frontend.tum")"
+grep -q '"odometry_drift": "0,0.1"' "$tmp/long/stats.json" && grep -q '"odometry_drift": null' "$tmp/out/stats.json" \
+  && ok "stats: odometry_drift" || bad "stats.json: odometry_drift"
+[ "$(head -n 1 "$tmp/long/frontend.tum")" = "$(head -n 1 "$tmp/out/frontend.tum")" ] && ok "drift: the first pose is the frontend's" \
+  || bad "drift: the first pose moved"
+check "drift heading" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/turn" --config "$tmp/tiny.yaml" --odometry-drift 2,0
+span=$(awk 'NR == 1 { t0 = $1 } END { printf "%.6f", $1 - t0 }' "$tmp/out/frontend.tum")
+awk -v a="$(last_yaw_deg "$tmp/turn/frontend.tum")" -v b="$(last_yaw_deg "$tmp/out/frontend.tum")" -v s="$span" \
+  'BEGIN { d = a - b; if (d > 180) d -= 360; if (d < -180) d += 360; exit !(s > 1 && d > 2 * s - 0.01 && d < 2 * s + 0.01) }' \
+  && ok "drift: turned by 2 deg/s over ${span} s" || bad "drift: last yaw $(last_yaw_deg "$tmp/turn/frontend.tum") against $(last_yaw_deg "$tmp/out/frontend.tum") over $span s"
+check "drift none" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/still" --config "$tmp/tiny.yaml" --odometry-drift 0,0
+cmp -s "$tmp/still/frontend.tum" "$tmp/out/frontend.tum" && ok "drift: 0,0 is the frontend to the last digit" || bad "drift: 0,0 moved poses"
+check "drift malformed" 2 "--odometry-drift: expected DEG_PER_S,SCALE" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --odometry-drift 0.1
+check "drift scale too large" 2 "--odometry-drift" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --odometry-drift 0,2
+
 # bad usage and bad options
 # the BA backend wired in: few keyframes (a fast test; the backend's accuracy is splat's tests')
 cp "$tmp/tiny.yaml" "$tmp/tiny_ba.yaml"

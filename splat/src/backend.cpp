@@ -157,6 +157,8 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("loop_max_refinement_m", o.loop_max_refinement_m, {0.0, 100.0});
   node.read("loop_max_refinement_deg", o.loop_max_refinement_deg, {0.0, 180.0});
   node.read("loop_lr_pose_translation", o.loop_lr_pose_translation, {0.0, 10.0});
+  node.read("loop_retry_search_m", o.loop_retry_search_m, {0.0, 100.0});
+  node.read("loop_retry_search_deg", o.loop_retry_search_deg, {0.0, 90.0});
   {
     OptionsNode m = node.child("loop_match");
     m.read("search_m", o.loop.search_m, {0.0, 100.0});
@@ -263,6 +265,8 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  loop_max_refinement_m: " << o.loop_max_refinement_m << "\n"
       << "  loop_max_refinement_deg: " << o.loop_max_refinement_deg << "\n"
       << "  loop_lr_pose_translation: " << o.loop_lr_pose_translation << "\n"
+      << "  loop_retry_search_m: " << o.loop_retry_search_m << "\n"
+      << "  loop_retry_search_deg: " << o.loop_retry_search_deg << "\n"
       << "  loop_match: {search_m: " << o.loop.search_m << ", search_deg: " << o.loop.search_deg
       << ", cell_m: " << o.loop.cell_m << ", step_deg: " << o.loop.step_deg << ", sigma_m: " << o.loop.sigma_m
       << ", near_best_fraction: " << o.loop.near_best_fraction << ", max_query_points: " << o.loop.max_query_points
@@ -303,6 +307,10 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (!(o.loop.search_deg >= 0 && o.loop.search_deg / o.loop.step_deg <= 200))
     fail("loop_match.search_deg", "a number >= 0, at most 200 step_deg steps");
   if (o.loop.max_query_points < 1) fail("loop_match.max_query_points", "an integer >= 1");
+  if (!(o.loop_retry_search_m >= 0 && o.loop_retry_search_m / o.loop.cell_m <= 200))
+    fail("loop_retry_search_m", "a number >= 0, at most 200 loop_match.cell_m steps");
+  if (!(o.loop_retry_search_deg >= 0 && o.loop_retry_search_deg / o.loop.step_deg <= 200))
+    fail("loop_retry_search_deg", "a number >= 0, at most 200 loop_match.step_deg steps");
   if (o.loop_query_keyframes < 1) fail("loop_query_keyframes", "an integer >= 1");
   if (o.loop_reference_keyframes < 1) fail("loop_reference_keyframes", "an integer >= 1");
   if (o.loop_every_keyframes < 1) fail("loop_every_keyframes", "an integer >= 1");
@@ -1141,7 +1149,22 @@ void Backend::align_revisit(std::size_t k) {
   const std::size_t q = static_cast<std::size_t>(options_.loop_query_keyframes);
   for (std::size_t i = k + 1 > q ? k + 1 - q : 0; i <= k; ++i)
     if (newest.t - keyframes_[i].t < options_.loop_min_age_s) world_points(i, query);
-  const PlanarMatch m = match_planar(reference, query, options_.loop);
+  PlanarMatch m = match_planar(reference, query, options_.loop);
+  // The window's best on its edge, or nothing in it that explains the points: the revisit may
+  // lie beyond it.
+  const auto on_edge = [&](const PlanarMatch& c) {
+    const PlanarMatchOptions& w = options_.loop;
+    return std::abs(c.correction.dyaw) / kDeg > w.search_deg - 0.5 * w.step_deg ||
+           std::abs(c.correction.dx) > w.search_m - 0.5 * w.cell_m || std::abs(c.correction.dy) > w.search_m - 0.5 * w.cell_m;
+  };
+  if ((!m.valid || m.score < options_.loop_min_score || on_edge(m)) &&
+      (options_.loop_retry_search_m > 0 || options_.loop_retry_search_deg > 0)) {
+    PlanarMatchOptions wider = options_.loop;
+    wider.search_m = std::max(wider.search_m, options_.loop_retry_search_m);
+    wider.search_deg = std::max(wider.search_deg, options_.loop_retry_search_deg);
+    ++stats_.loop_retries;
+    m = match_planar(reference, query, wider);
+  }
   if (!m.valid || m.score < options_.loop_min_score) {
     ++stats_.loop_rejected_score;
     return;

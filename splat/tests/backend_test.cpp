@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <numbers>
 #include <limits>
 #include <memory>
@@ -139,6 +140,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
+      "  loop_retry_search_m: 2.0\n"
+      "  loop_retry_search_deg: 12\n"
       "  range_falloff_exponent: 4\n"
       "  rd_elevation_sigma_sin: 0.156\n"
       "  rd_image_gradient: false\n"
@@ -151,6 +154,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
+  CHECK(o.loop_retry_search_m == 2.0);
+  CHECK(o.loop_retry_search_deg == 12);
   CHECK(o.range_falloff_exponent == 4);
   CHECK(o.rd_elevation_sigma_sin == 0.156);
   CHECK_FALSE(o.rd_image_gradient);
@@ -176,6 +181,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(d.ba_radius_m == 10.0);
   CHECK(d.pose_dof == 3);
   CHECK(d.final_ba.max_iterations == 0);  // the end-of-run BA is off unless asked for
+  CHECK(d.loop_retry_search_m == 2.0);     // the revisit match's wider retry is on
+  CHECK(d.loop_retry_search_deg == 12.0);
 
   auto fails_on = [](const std::string& yaml, const std::string& key) {
     try {
@@ -209,6 +216,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
+  fails_on("backend: {loop_retry_search_m: 20}\n", "loop_retry_search_m");      // 400 cells of 5 cm
+  fails_on("backend: {loop_retry_search_deg: 60}\n", "loop_retry_search_deg");  // 240 steps of 0.25 deg
   fails_on("backend: {range_falloff_exponent: 9}\n", "range_falloff_exponent");
   fails_on("backend: {rd_elevation_sigma_sin: 0.5}\n", "rd_elevation_sigma_sin");
   fails_on("backend: {rd_elevation_sigma_sin: 0.1, rd_gaussian_directions: true}\n", "rd_elevation_sigma_sin");
@@ -1032,7 +1041,8 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   // points stay unless max_keyframe_points drops them too.
   auto walk = [&](bool loop_closure, BackendStats& stats, Errors& errors, bool evicting = false,
                   int max_keyframe_points = BackendOptions{}.max_keyframe_points,
-                  int max_keyframes = BackendOptions{}.max_keyframes) {
+                  int max_keyframes = BackendOptions{}.max_keyframes,
+                  const std::function<void(BackendOptions&)>& adjust = {}) {
     BackendOptions o = deterministic_options(10, 5, 5, 20);
     o.max_image_range_m = 12;
     o.loop_closure = loop_closure;
@@ -1046,6 +1056,7 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
     o.loop_every_keyframes = 1;
     o.loop_query_keyframes = 3;
     o.loop.search_deg = 8;
+    if (adjust) adjust(o);
     Backend backend(config, grids, o);
     const double dt = 0.1, speed = 0.6;
     const int half = 40;
@@ -1138,4 +1149,37 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   CHECK(dropped_stats.keyframes - dropped_stats.keyframes_dropped <= 5);
   CHECK(dropped_stats.nan_guard_hits == 0);
   CHECK(err_dropped < err_without);
+
+  // The revisit beyond the match's window: the first attempt 6 s after the first pass, 3.6 deg
+  // of drift apart, and +-0.5 deg searched. The window's best lies on its edge and the loops it
+  // closes take out a part of the drift (4.5 -> 3.4 deg); the retry over +-8 deg
+  // (loop_retry_search_deg) finds the rest, as the 8 deg window above did.
+  BackendStats narrow_stats, retry_stats;
+  Errors mean_narrow, mean_retry;
+  const auto [err_narrow, yaw_narrow] = walk(true, narrow_stats, mean_narrow, false, BackendOptions{}.max_keyframe_points,
+                                             BackendOptions{}.max_keyframes,
+                                             [](BackendOptions& o) {
+                                               o.loop_min_age_s = 6;
+                                               o.loop.search_deg = 0.5;
+                                               o.loop_retry_search_m = o.loop_retry_search_deg = 0;
+                                             });
+  const auto [err_retry, yaw_retry] =
+      walk(true, retry_stats, mean_retry, false, BackendOptions{}.max_keyframe_points, BackendOptions{}.max_keyframes,
+           [](BackendOptions& o) {
+             o.loop_min_age_s = 6;
+             o.loop.search_deg = 0.5;
+             o.loop_retry_search_m = 0;  // the window's 0.8 m
+             o.loop_retry_search_deg = 8;
+           });
+  std::printf("out-and-back walk, the first revisit 6 s later, +-0.5 deg searched: final keyframe error %.3f m / %.2f deg "
+              "(%llu loops); with the retry over +-8 deg %.3f m / %.2f deg (%llu loops, %llu retries)\n",
+              err_narrow, yaw_narrow, static_cast<unsigned long long>(narrow_stats.loop_closures), err_retry, yaw_retry,
+              static_cast<unsigned long long>(retry_stats.loop_closures),
+              static_cast<unsigned long long>(retry_stats.loop_retries));
+  CHECK(narrow_stats.loop_retries == 0);
+  CHECK(retry_stats.loop_retries >= 1);
+  CHECK(retry_stats.loop_closures >= 1);
+  CHECK(yaw_retry < 0.5 * yaw_narrow);
+  CHECK(err_retry < 0.5 * err_narrow);
+  CHECK(retry_stats.nan_guard_hits == 0);
 }

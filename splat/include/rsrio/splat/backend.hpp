@@ -244,6 +244,20 @@ struct BackendOptions {
   // for steps of millimetres around a pose the frontend already gives to centimetres.
   double loop_lr_pose_translation = 0.01;
   PlanarMatchOptions loop;
+  // A revisit beyond loop_match's window: a frontend whose heading drifts by a few hundredths of
+  // a degree a second comes back several degrees off after a loop of a few minutes, where the
+  // window's best candidate lies on the window's edge or explains little of the points. When it
+  // does (on the edge, or below loop_min_score) the match is tried once more over
+  // +-loop_retry_search_m and +-loop_retry_search_deg (each at least the window's; both 0: off),
+  // and what it finds goes through the same checks. Against a frontend drifting 0.03 deg/s
+  // (rsrio-replay --odometry-drift) it closed the corridor rings' loops (sequence 3 0.61 ->
+  // 0.19 m at the end of the run, sequence 4 0.65 -> 0.17 m); on the five sequences as they are
+  // it retried 2-5 times each, accepted none, and left every trajectory the same to the last
+  // digit. A wider window from the start instead found matches the narrow one refuses as
+  // ambiguous and made sequence 2 worse (splat/RESULTS.md). About 0.3 s a retry (the window's
+  // 14 times: rsrio-splat-bench), on the BA thread.
+  double loop_retry_search_m = 2.0;
+  double loop_retry_search_deg = 12.0;
   // ---- scene
   int max_gaussians = 100'000;
   // Keyframes whose images are kept (about 160 kB each on the cascade): beyond it the images of
@@ -318,6 +332,7 @@ struct BackendStats {
   std::uint64_t loop_attempts = 0, loop_closures = 0;
   std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
   std::uint64_t loop_rejected_refinement = 0;  // the image alignment moved the match too far, or the graph failed
+  std::uint64_t loop_retries = 0;  // matches tried again over the wider window (loop_retry_search_*)
   std::size_t gaussians = 0;
   double rd_gain = 0;
   StageStats pose, mapping, ba;
