@@ -549,25 +549,25 @@ int main() {
       return out;
     };
     const std::vector<Eigen::Vector2d> reference = cloud(20 * 150);
-    PlanarCorrection drift;
-    drift.dx = 0.3;
-    drift.dyaw = 1.0 * std::numbers::pi / 180.0;
-    std::vector<Eigen::Vector2d> query;
-    for (const Eigen::Vector2d& p : cloud(10 * 150))
-      query.push_back((drift.isometry() * Eigen::Vector3d(p.x(), p.y(), 0)).head<2>());
+    // A new pass's cloud, moved by a drift of dx (m) and dyaw (deg).
+    auto drifted_cloud = [&](double dx, double dyaw_deg) {
+      PlanarCorrection drift;
+      drift.dx = dx;
+      drift.dyaw = dyaw_deg * std::numbers::pi / 180.0;
+      std::vector<Eigen::Vector2d> out;
+      for (const Eigen::Vector2d& p : cloud(10 * 150))
+        out.push_back((drift.isometry() * Eigen::Vector3d(p.x(), p.y(), 0)).head<2>());
+      return out;
+    };
+    const std::vector<Eigen::Vector2d> query = drifted_cloud(0.3, 1.0);
     PlanarMatch m;
     const double match_ms = median_ms(5, [&] { m = match_planar(reference, query, PlanarMatchOptions{}); });
-    // The retry over a wider window (BackendOptions::loop_retry_search_*, as splat/RESULTS.md
-    // measured it: +-2 m, +-12 deg) for a revisit 1 m and 8 deg off.
-    PlanarCorrection far_drift;
-    far_drift.dx = 1.0;
-    far_drift.dyaw = 8.0 * std::numbers::pi / 180.0;
-    std::vector<Eigen::Vector2d> far_query;
-    for (const Eigen::Vector2d& p : cloud(10 * 150))
-      far_query.push_back((far_drift.isometry() * Eigen::Vector3d(p.x(), p.y(), 0)).head<2>());
+    // The retry over the wider window (BackendOptions::loop_retry_search_*) for a revisit 1 m and
+    // 8 deg off.
+    const std::vector<Eigen::Vector2d> far_query = drifted_cloud(1.0, 8.0);
     PlanarMatchOptions retry;
-    retry.search_m = 2.0;
-    retry.search_deg = 12.0;
+    retry.search_m = BackendOptions{}.loop_retry_search_m;
+    retry.search_deg = BackendOptions{}.loop_retry_search_deg;
     PlanarMatch far;
     const double retry_ms = median_ms(3, [&] { far = match_planar(reference, far_query, retry); });
     std::vector<Eigen::Vector3d> chain;
