@@ -208,7 +208,12 @@ struct BackendOptions {
   // ---- learning rates (Adam)
   double lr_pose_translation = 0.003;  // m
   double lr_pose_rotation = 0.004;     // rad
-  double lr_means = 0.005;             // m
+  // The map moves slower than the pose (RadarSplat's 1.6e-4 x scene scale, 2e-3 for a ~12 m room):
+  // with Adam's normalised steps a faster map absorbs a keyframe's pose error into the Gaussians
+  // instead of letting the images correct the pose. 0.005 before 2026-12-05 (splat/RESULTS.md,
+  // "How fast the map moves": 0.002 lowers the mean APE published and at the end of the run, and
+  // against a frontend that drifts keeps less of its drift).
+  double lr_means = 0.002;             // m
   double lr_rotations = 1e-3;
   double lr_log_scales = 5e-3;
   double lr_log_returns = 0.03;
