@@ -388,12 +388,8 @@ int main(int argc, char** argv) {
     std::cout << "# " << res.detections.size() << " CFAR detections, " << res.points.size() << " points -> "
               << out_dir << "/{ra.npy, rd.npy, axes.json, points.csv, ra.png, rd.png"
               << (write_rad ? ", rad.npy" : "") << "}\n";
-  } catch (const rsrio::ConfigError& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return rsrio::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return 1;
+  } catch (...) {
+    return rsrio::report_program_error(kProgram, std::current_exception());
   }
   return 0;
 }

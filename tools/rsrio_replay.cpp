@@ -712,12 +712,8 @@ int main(int argc, char** argv) {
     spdlog::info("{} frames ({} with a state, {} rejected by the ego-velocity, {} damaged); p50/p99 ms: dsp {:.2f}/{:.2f}, "
                  "ego-velocity {:.2f}/{:.2f}, frontend {:.2f}/{:.2f}; wrote {}",
                  frames, states, rejected_total, damaged_total, pd.p50, pd.p99, pe.p50, pe.p99, pf.p50, pf.p99, out_dir);
-  } catch (const rsrio::ConfigError& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return rsrio::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return 1;
+  } catch (...) {
+    return rsrio::report_program_error(kProgram, std::current_exception());
   }
   return 0;
 }

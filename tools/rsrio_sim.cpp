@@ -280,9 +280,8 @@ int main(int argc, char** argv) {
       spdlog::warn("{} ADC samples saturated at int16 (clipped, as the real ADC would)", saturated);
     spdlog::info("wrote {}: {} radar frames, {} IMU samples, {:.1f} s simulated in {:.1f} s ({:.2f}x real time)",
                  out_path, frames, imu_samples, duration, wall, duration / std::max(wall, 1e-9));
-  } catch (const std::exception& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return 1;
+  } catch (...) {
+    return rsrio::report_program_error(kProgram, std::current_exception());
   }
   return 0;
 }

@@ -174,12 +174,8 @@ int main(int argc, char** argv) {
     line("bundle adjustment per keyframe", tm.ba);
     const std::int64_t last = last_stamp_ns.load();
     spdlog::info("stopped after {} poses, last pose at {}.{:09d}", poses.load(), last / 1000000000, last % 1000000000);
-  } catch (const rsrio::ConfigError& e) {
-    std::cerr << "rsriod: error: " << e.what() << "\n";
-    return rsrio::kExitUsage;
-  } catch (const std::exception& e) {
-    std::cerr << "rsriod: error: " << e.what() << "\n";
-    return 1;
+  } catch (...) {
+    return rsrio::report_program_error("rsriod", std::current_exception());
   }
   return 0;
 }

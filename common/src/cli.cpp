@@ -129,4 +129,18 @@ std::optional<int> load_program_config(const Cli& cli, const std::string& progra
   return std::nullopt;
 }
 
+int report_program_error(const std::string& program, const std::exception_ptr& error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const ConfigError& e) {
+    std::cerr << program << ": error: " << e.what() << "\n";
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << program << ": error: " << e.what() << "\n";
+  } catch (...) {
+    std::cerr << program << ": error: unknown exception\n";
+  }
+  return 1;
+}
+
 }  // namespace rsrio

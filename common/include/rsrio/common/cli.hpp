@@ -4,6 +4,7 @@
 // Exit codes: 0 after --help / --version, 2 for a bad command line or a bad configuration.
 #pragma once
 
+#include <exception>
 #include <functional>
 #include <optional>
 #include <string>
@@ -73,5 +74,12 @@ class OptionsNode;
 /// returns kExitUsage; std::nullopt when the program should go on.
 std::optional<int> load_program_config(const Cli& cli, const std::string& program,
                                        const std::function<void(OptionsNode&)>& read);
+
+/// What a program's main() returns for an exception that ended it, after printing
+/// "PROGRAM: error: WHAT" on stderr: kExitUsage for a ConfigError (an option found bad only once
+/// the program ran, e.g. a recording's radar section), 1 for anything else. Every program ends
+/// its main() with `catch (...) { return report_program_error(kProgram, std::current_exception()); }`
+/// so that the exit codes above hold the same everywhere.
+int report_program_error(const std::string& program, const std::exception_ptr& error);
 
 }  // namespace rsrio
