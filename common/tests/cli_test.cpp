@@ -15,15 +15,15 @@
 
 namespace {
 
-// Captures what a call writes on std::cerr (and std::cout) for the duration of a scope.
-struct CapturedStreams {
-  std::ostringstream err, out;
-  std::streambuf* old_err = std::cerr.rdbuf(err.rdbuf());
-  std::streambuf* old_out = std::cout.rdbuf(out.rdbuf());
-  ~CapturedStreams() {
-    std::cerr.rdbuf(old_err);
-    std::cout.rdbuf(old_out);
-  }
+// Captures what is written on one standard stream for the duration of a scope. Only around the
+// call itself for std::cout: Catch2 reports failed checks there.
+struct Captured {
+  std::ostream& stream;
+  std::ostringstream text;
+  std::streambuf* old = stream.rdbuf(text.rdbuf());
+  explicit Captured(std::ostream& s) : stream(s) {}
+  ~Captured() { stream.rdbuf(old); }
+  std::string str() const { return text.str(); }
 };
 
 std::optional<int> parse(rsrio::Cli& cli, std::vector<const char*> args) {
@@ -48,7 +48,7 @@ TEST_CASE("Cli: options, switches and positionals; bad command lines exit 2 with
   rsrio::Cli cli("prog", "a test program");
   cli.option("--out", "DIR", "where", &out).flag("--quiet", "less", &quiet).positional("INPUT", "what", &input);
 
-  CapturedStreams streams;
+  Captured err(std::cerr);
   CHECK_FALSE(parse(cli, {"--out", "a", "--quiet", "in.mcap"}).has_value());
   CHECK(out == "a");
   CHECK(quiet);
@@ -57,30 +57,37 @@ TEST_CASE("Cli: options, switches and positionals; bad command lines exit 2 with
   CHECK(out == "b");
   CHECK(cli.log_level() == "debug");
 
-  CHECK(parse(cli, {"--help"}) == 0);
-  CHECK(streams.out.str().find("usage: prog [options] INPUT") != std::string::npos);
+  std::optional<int> help_rc;
+  std::string help_text;
+  {
+    Captured help_out(std::cout);
+    help_rc = parse(cli, {"--help"});
+    help_text = help_out.str();
+  }
+  CHECK(help_rc == 0);
+  CHECK(help_text.find("usage: prog [options] INPUT") != std::string::npos);
   CHECK(parse(cli, {"--bogus", "x"}) == rsrio::kExitUsage);
-  CHECK(streams.err.str().find("prog: error: unknown option --bogus\n(see prog --help)") != std::string::npos);
+  CHECK(err.str().find("prog: error: unknown option --bogus\n(see prog --help)") != std::string::npos);
   CHECK(parse(cli, {"x", "--out"}) == rsrio::kExitUsage);
-  CHECK(streams.err.str().find("--out needs a value (DIR)") != std::string::npos);
+  CHECK(err.str().find("--out needs a value (DIR)") != std::string::npos);
   CHECK(parse(cli, {"--quiet=1", "x"}) == rsrio::kExitUsage);
   CHECK(parse(cli, {}) == rsrio::kExitUsage);
-  CHECK(streams.err.str().find("missing INPUT") != std::string::npos);
+  CHECK(err.str().find("missing INPUT") != std::string::npos);
   CHECK(parse(cli, {"x", "y"}) == rsrio::kExitUsage);
-  CHECK(streams.err.str().find("unexpected argument 'y'") != std::string::npos);
+  CHECK(err.str().find("unexpected argument 'y'") != std::string::npos);
 }
 
 TEST_CASE("report_program_error: a bad option exits 2, any other failure 1, each with its message") {
-  CapturedStreams streams;
+  Captured err(std::cerr);
   CHECK(report(rsrio::ConfigError("run.yaml", "backend.lr_means", "a number in (0, 1]")) == rsrio::kExitUsage);
-  CHECK(streams.err.str().rfind("prog: error: run.yaml", 0) == 0);
-  CHECK(streams.err.str().find("backend.lr_means") != std::string::npos);
+  CHECK(err.str().rfind("prog: error: run.yaml", 0) == 0);
+  CHECK(err.str().find("backend.lr_means") != std::string::npos);
 
-  streams.err.str("");
+  err.text.str("");
   CHECK(report(std::runtime_error("in.mcap: truncated chunk at byte 4096")) == 1);
-  CHECK(streams.err.str() == "prog: error: in.mcap: truncated chunk at byte 4096\n");
+  CHECK(err.str() == "prog: error: in.mcap: truncated chunk at byte 4096\n");
 
-  streams.err.str("");
+  err.text.str("");
   CHECK(report(42) == 1);
-  CHECK(streams.err.str() == "prog: error: unknown exception\n");
+  CHECK(err.str() == "prog: error: unknown exception\n");
 }

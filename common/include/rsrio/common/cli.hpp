@@ -77,9 +77,9 @@ std::optional<int> load_program_config(const Cli& cli, const std::string& progra
 
 /// What a program's main() returns for an exception that ended it, after printing
 /// "PROGRAM: error: WHAT" on stderr: kExitUsage for a ConfigError (an option found bad only once
-/// the program ran, e.g. a recording's radar section), 1 for anything else. Every program ends
-/// its main() with `catch (...) { return report_program_error(kProgram, std::current_exception()); }`
-/// so that the exit codes above hold the same everywhere.
+/// the program ran, e.g. a recording's radar section), 1 for anything else. A program whose work
+/// runs in one try block ends it with
+/// `catch (...) { return report_program_error(kProgram, std::current_exception()); }`.
 int report_program_error(const std::string& program, const std::exception_ptr& error);
 
 }  // namespace rsrio
