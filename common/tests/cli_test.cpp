@@ -43,7 +43,7 @@ int report(const E& e) {
 }  // namespace
 
 TEST_CASE("Cli: options, switches and positionals; bad command lines exit 2 with a hint") {
-  std::string input, out, level;
+  std::string input, out;
   bool quiet = false;
   rsrio::Cli cli("prog", "a test program");
   cli.option("--out", "DIR", "where", &out).flag("--quiet", "less", &quiet).positional("INPUT", "what", &input);
