@@ -34,6 +34,7 @@
 #include "rsrio/common/cli.hpp"
 #include "rsrio/eval/plot.hpp"
 #include "rsrio/eval/trajectory.hpp"
+#include "cli_numbers.hpp"
 
 namespace {
 namespace fs = std::filesystem;
@@ -434,15 +435,17 @@ int main(int argc, char** argv) {
     try {
       Tables tables(data_dir, scenario_dir, cli.config_path(), reuse, repeatable);
       return do_ablation ? ablation(tables, sequences, rows) : table(tables, sequences, table_json);
-    } catch (const std::exception& ex) {
-      std::cerr << "rsrio-eval: error: " << ex.what() << "\n";
-      return 1;
+    } catch (...) {
+      return rsrio::report_program_error("rsrio-eval", std::current_exception());
     }
   }
   if (gt.empty() || est.empty()) return cli.usage_error("--gt and --est are required");
+  double d = 0, dt = 0;
+  if (!rsrio::tools::parse_double(delta, d) || d <= 0) return cli.usage_error("--delta: expected metres > 0, got '" + delta + "'");
+  if (!rsrio::tools::parse_double(max_dt, dt) || dt < 0)
+    return cli.usage_error("--max-dt: expected seconds >= 0, got '" + max_dt + "'");
   try {
     const auto alignment = rsrio::eval::parse_alignment(align);
-    const double d = std::stod(delta), dt = std::stod(max_dt);
     const auto ref = rsrio::eval::read_tum(gt), e = rsrio::eval::read_tum(est);
     rsrio::eval::Trajectory ra, ea;
     rsrio::eval::associate(ref, e, dt, ra, ea);
@@ -484,9 +487,12 @@ int main(int argc, char** argv) {
                            "APE " + std::to_string(a.translation_m.rmse).substr(0, 5) + " m rmse");
       std::printf("plot: %s\n", plot.c_str());
     }
-  } catch (const std::exception& ex) {
-    std::cerr << "rsrio-eval: error: " << ex.what() << "\n";
-    return rsrio::kExitUsage;
+  } catch (const std::invalid_argument& ex) {
+    // --align naming no alignment: the command line's fault.
+    return cli.usage_error(ex.what());
+  } catch (...) {
+    // A TUM file that is missing or malformed: the data's, not the command line's.
+    return rsrio::report_program_error("rsrio-eval", std::current_exception());
   }
   return 0;
 }

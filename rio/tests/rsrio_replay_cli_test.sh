@@ -133,6 +133,11 @@ grep -q '"repeatable": true' "$tmp/data/seq1_meeting_room_ablation_noba_repeatab
 check "ablation unknown row" 2 "unknown variant 'r7' (one of: full, noba, r1" "$eval" --ablation --variants noba,r7 --data "$tmp/data"
 check "repeatable without a table" 2 "--repeatable needs --table" "$eval" --gt "$tmp/out/ground_truth.tum" \
   --est "$tmp/out/estimate.tum" --repeatable
+check "eval: missing file" 1 "nothing.tum: cannot open" "$eval" --gt "$tmp/out/ground_truth.tum" --est "$tmp/nothing.tum"
+check "eval: bad --delta" 2 "--delta: expected metres > 0, got 'x'" "$eval" --gt "$tmp/out/ground_truth.tum" \
+  --est "$tmp/out/estimate.tum" --delta x
+check "eval: bad --align" 2 "alignment 'sim3'" "$eval" --gt "$tmp/out/ground_truth.tum" --est "$tmp/out/estimate.tum" \
+  --align sim3
 check "variants without ablation" 2 "--variants needs --ablation" "$eval" --table --variants noba --data "$tmp/data"
 check "backend unknown" 2 "--backend" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend foo
 check "no input" 2 "--input and --out are required" "$replay" --out "$tmp/x"
