@@ -19,7 +19,8 @@
 // DIR/frontend.tum   the frontend's radar-frame pose per radar frame (TUM, radar clock, world = the
 //                    frontend's: origin at the first state, yaw 0 there)
 // DIR/estimate.tum   the pose after the backend as published (causal; = frontend.tum with --backend none)
-// DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present
+// DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present,
+//                    interpolated at the stamps of frontend.tum (none across a gap of 0.05 s)
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
 // With --backend ba also
 // DIR/estimate_final.tum  every frame's pose as the backend's map has it at the end of the run
@@ -75,6 +76,8 @@
 namespace {
 
 constexpr const char* kProgram = "rsrio-replay";
+// Interpolate the ground truth only between samples this close (the simulator's come every 5 ms).
+constexpr double kGroundTruthMaxGapS = 0.05;
 
 double seconds(const builtin_interfaces::msg::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
 
@@ -631,6 +634,12 @@ int main(int argc, char** argv) {
     const auto path = [&](const char* name) { return (std::filesystem::path(out_dir) / name).string(); };
     rsrio::eval::write_tum(path("frontend.tum"), frontend_tum);
     rsrio::eval::write_tum(path("estimate.tum"), estimate_tum);
+    // The truth where each frame's pose is estimated (the IMU-rate stream interpolated at the
+    // frames' stamps), so that nearest-stamp association, rsrio-eval's and evo's, pairs exactly.
+    std::vector<double> frame_stamps;
+    frame_stamps.reserve(frontend_tum.size());
+    for (const auto& p : frontend_tum) frame_stamps.push_back(p.t);
+    ground_truth = rsrio::eval::resampled(ground_truth, frame_stamps, kGroundTruthMaxGapS);
     if (!ground_truth.empty()) rsrio::eval::write_tum(path("ground_truth.tum"), ground_truth);
     if (ba != nullptr && ba->backend() != nullptr) {
       const rsrio::eval::Trajectory final_tum = ba->final_trajectory();

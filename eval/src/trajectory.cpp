@@ -69,6 +69,22 @@ void associate(const Trajectory& ref, const Trajectory& est, double max_dt, Traj
   }
 }
 
+Trajectory resampled(const Trajectory& t, const std::vector<double>& stamps, double max_gap_s) {
+  Trajectory out;
+  out.reserve(stamps.size());
+  std::size_t j = 0;  // t[j].t <= stamp < t[j + 1].t
+  for (const double s : stamps) {
+    if (t.size() < 2 || s < t.front().t || s > t.back().t) continue;
+    while (j + 2 < t.size() && t[j + 1].t <= s) ++j;
+    const StampedPose& a = t[j];
+    const StampedPose& b = t[j + 1];
+    if (b.t - a.t > max_gap_s) continue;
+    const double w = b.t > a.t ? (s - a.t) / (b.t - a.t) : 0.0;
+    out.push_back({s, (1 - w) * a.p + w * b.p, a.q.slerp(w, b.q).normalized()});
+  }
+  return out;
+}
+
 Alignment parse_alignment(const std::string& name) {
   if (name == "none") return Alignment::kNone;
   if (name == "se3") return Alignment::kSE3;

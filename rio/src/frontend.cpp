@@ -48,13 +48,28 @@ gtsam::Vector3 RioFrontend::gyro_at(double t) const {
   return imu_.back().gyro;
 }
 
-// Zero-order hold of each IMU sample until the next, cut exactly at t0 and t1.
-void RioFrontend::preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const {
+template <class F>
+void RioFrontend::for_each_imu_piece(double t0, double t1, F&& f) const {
   for (std::size_t i = 0; i < imu_.size(); ++i) {
+    const bool has_next = i + 1 < imu_.size();
     const double a = std::max(imu_[i].t, t0);
-    const double b = std::min(i + 1 < imu_.size() ? imu_[i + 1].t : t1, t1);
-    if (b > a + 1e-9) pim.integrateMeasurement(imu_[i].accel, imu_[i].gyro, b - a);
+    const double b = std::min(has_next ? imu_[i + 1].t : t1, t1);
+    if (b <= a + 1e-9) continue;
+    if (!has_next || options_.imu_interpolation == FrontendOptions::ImuInterpolation::kHold) {
+      f(imu_[i].accel, imu_[i].gyro, b - a);
+      continue;
+    }
+    // A straight line integrates over [a, b] as its value at the middle (the trapezoid rule, cut
+    // exactly at t0 and t1).
+    const double w = (0.5 * (a + b) - imu_[i].t) / (imu_[i + 1].t - imu_[i].t);
+    f((1 - w) * imu_[i].accel + w * imu_[i + 1].accel, (1 - w) * imu_[i].gyro + w * imu_[i + 1].gyro, b - a);
   }
+}
+
+void RioFrontend::preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const {
+  for_each_imu_piece(t0, t1, [&](const gtsam::Vector3& accel, const gtsam::Vector3& gyro, double dt) {
+    pim.integrateMeasurement(accel, gyro, dt);
+  });
   if (pim.deltaTij() < 1e-9) pim.integrateMeasurement(imu_.back().accel, imu_.back().gyro, std::max(t1 - t0, 1e-6));
 }
 
@@ -112,14 +127,10 @@ void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, co
   StillInterval cur;
   cur.k = k;
   gtsam::Vector3 sum = gtsam::Vector3::Zero();
-  for (std::size_t i = 0; i < imu_.size(); ++i) {
-    const double a = std::max(imu_[i].t, t0);
-    const double b = std::min(i + 1 < imu_.size() ? imu_[i + 1].t : t1, t1);
-    if (b > a) {
-      sum += imu_[i].gyro * (b - a);
-      cur.dt += b - a;
-    }
-  }
+  for_each_imu_piece(t0, t1, [&](const gtsam::Vector3&, const gtsam::Vector3& gyro, double dt) {
+    sum += gyro * dt;
+    cur.dt += dt;
+  });
   if (cur.dt > 1e-3) cur.mean = sum / cur.dt;
   // Still: the radar sees no motion and the gyro shows nothing beyond the bias we believe in.
   const gtsam::Vector3 bias = values_.at<gtsam::imuBias::ConstantBias>(B(k)).gyroscope();

@@ -126,6 +126,46 @@ TEST_CASE("standing still, the zero angular-rate update finds the gyro bias; wit
   CHECK(yaw_error_off > 0.02);  // 8 s x 4e-3 rad/s, less what the prior lets it learn
 }
 
+TEST_CASE("the IMU integrated as a line between samples: a turn that speeds up is not followed half a sample late",
+          "[frontend]") {
+  // Noise-free instantaneous samples at 200 Hz of a turn on the spot whose rate ramps from 0 to
+  // 1 rad/s over 2 s and then holds: yaw = 0.25 (t - 1)^2, then 1 + (t - 3). Holding each sample
+  // until the next integrates the rate late, by (rate now - rate at the start) x half a period:
+  // 2.5 mrad here; the line through the samples integrates the ramp exactly.
+  const auto yaw_error = [](FrontendOptions::ImuInterpolation interpolation) {
+    FrontendOptions o;
+    o.imu_interpolation = interpolation;
+    RioFrontend frontend(o);
+    const auto rate = [](double t) { return t < 1 ? 0.0 : t < 3 ? 0.5 * (t - 1) : 1.0; };
+    const auto yaw = [](double t) { return t < 1 ? 0.0 : t < 3 ? 0.25 * (t - 1) * (t - 1) : 1 + (t - 3); };
+    std::optional<FrontendState> first, last;
+    double t_first = 0, t_last = 0;
+    for (int i = 0; i <= 200 * 4; ++i) {
+      const double t = i / 200.0;
+      // Turning on the spot about the IMU: the specific force is gravity, in the body frame too.
+      frontend.add_imu({t, gtsam::Vector3(0, 0, o.gravity), gtsam::Vector3(0, 0, rate(t))});
+      if (i % 20 == 10) {
+        EgoVelocity ego;  // the radar sits on the IMU (no lever arm): it sees no motion
+        ego.status = EgoVelocityStatus::kOk;
+        ego.covariance = gtsam::I_3x3 * 1e-4;
+        auto s = frontend.add_radar(t, ego);
+        if (s && !first) first = s, t_first = t;
+        if (s) last = s, t_last = t;
+      }
+    }
+    REQUIRE(first);
+    REQUIRE(last);
+    const double turned = last->world_T_body.rotation().yaw() - first->world_T_body.rotation().yaw();
+    return std::remainder(turned - (yaw(t_last) - yaw(t_first)), 2 * std::numbers::pi);
+  };
+  const double linear = yaw_error(FrontendOptions::ImuInterpolation::kLinear);
+  const double hold = yaw_error(FrontendOptions::ImuInterpolation::kHold);
+  INFO("yaw error after the turn: linear " << linear << " rad, hold " << hold << " rad");
+  CHECK(hold < -2.0e-3);
+  CHECK(hold > -3.0e-3);
+  CHECK(std::abs(linear) < 1e-4);
+}
+
 namespace {
 
 // A level rig driven in the plane, in closed form in the body frame: speed v along x (dv its

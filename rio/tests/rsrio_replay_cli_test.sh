@@ -29,6 +29,9 @@ for f in frontend.tum estimate.tum ground_truth.tum stats.json; do
   [ -s "$tmp/out/$f" ] && ok "wrote $f" || bad "missing $f"
 done
 [ "$(grep -c . "$tmp/out/frontend.tum")" = 63 ] && ok "one pose per frame" || bad "frontend.tum has $(grep -c . "$tmp/out/frontend.tum") lines, want 63"
+# the truth at the frames' stamps (interpolated from the IMU-rate stream): exact pairs for evo too
+cmp -s <(cut -d' ' -f1 "$tmp/out/frontend.tum") <(cut -d' ' -f1 "$tmp/out/ground_truth.tum") \
+  && ok "ground truth at the frames' stamps" || bad "ground_truth.tum's stamps are not frontend.tum's"
 cmp -s "$tmp/out/frontend.tum" "$tmp/out/estimate.tum" && ok "estimate = frontend without a backend" || bad "estimate.tum differs from frontend.tum"
 grep -q '"frames": 63' "$tmp/out/stats.json" && ok "stats: frames" || bad "stats.json frames"
 grep -q '"recording_damage": null' "$tmp/out/stats.json" && ok "stats: no damage" || bad "stats.json damage"
