@@ -20,7 +20,7 @@
 //                    frontend's: origin at the first state, yaw 0 there)
 // DIR/estimate.tum   the pose after the backend as published (causal; = frontend.tum with --backend none)
 // DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present,
-//                    interpolated at the stamps of frontend.tum (none across a gap of 0.05 s)
+//                    interpolated at the stamps of frontend.tum (none across a gap of 0.25 s)
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
 // With --backend ba also
 // DIR/estimate_final.tum  every frame's pose as the backend's map has it at the end of the run
@@ -76,8 +76,9 @@
 namespace {
 
 constexpr const char* kProgram = "rsrio-replay";
-// Interpolate the ground truth only between samples this close (the simulator's come every 5 ms).
-constexpr double kGroundTruthMaxGapS = 0.05;
+// Interpolate the ground truth only between samples this close: the simulator's come every 5 ms,
+// a motion-capture system's at 10 Hz or faster; a longer gap is a dropout, not a pose.
+constexpr double kGroundTruthMaxGapS = 0.25;
 
 double seconds(const builtin_interfaces::msg::Time& t) { return t.sec() + 1e-9 * t.nanosec(); }
 
