@@ -101,8 +101,9 @@ while read -r name ticks; do
 done <<<"$threads_cpu"
 printf '| %-46s | %s MB (RSS sampled: %s MB) |\n' "peak memory VmHWM" "$(awk -v k="${peak_hwm:-0}" 'BEGIN { printf "%.1f", k / 1024 }')" "$(awk -v k="$peak_rss" 'BEGIN { printf "%.1f", k / 1024 }')"
 # Ground truth (and the frontend's replay for comparison) from the recording.
+# Kept for the next run, made again when rsrio-replay is newer (it decides what ground_truth.tum holds).
 gt=$out/replay_${laps}laps/ground_truth.tum
-[ -s "$gt" ] || "$bin/rsrio-replay" --input "$rec" --out "$out/replay_${laps}laps" --config "$out/estimator.yaml" \
+[ -s "$gt" ] && [ "$gt" -nt "$bin/rsrio-replay" ] || "$bin/rsrio-replay" --input "$rec" --out "$out/replay_${laps}laps" --config "$out/estimator.yaml" \
   >/dev/null 2>&1 || true
 if [ -s "$gt" ]; then
   ape() { "$bin/rsrio-eval" --gt "$gt" --est "$1" 2>&1 | awk '/^APE translation \(m\)/ { print $5 }'; }
