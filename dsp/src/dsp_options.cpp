@@ -98,7 +98,7 @@ void print(std::ostream& out, const DspOptions& o) {
       << "  angle_peak_db: " << o.angle_peak_db << "\n"
       << "  cfar:\n"
       << "    type: " << c.type << "\n"
-      << "    mode: " << c.mode << "\n"
+      << "    mode: \"" << c.mode << "\"\n"  // quoted: cv::FileStorage reads a bare 2d as a number
       << "    pfa: " << c.pfa << "\n"
       << "    guard_range: " << c.guard_range << "\n"
       << "    train_range: " << c.train_range << "\n"

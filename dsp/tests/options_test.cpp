@@ -103,6 +103,11 @@ TEST_CASE("dsp options: every key is read", "[dsp][options]") {
   std::ostringstream s2;
   print(s2, back);
   CHECK(s2.str() == s.str());
+
+  // and so do the defaults: cfar.mode "2d" reads as a malformed number unless printed quoted
+  std::ostringstream sd;
+  print(sd, DspOptions{});
+  CHECK(load(write_yaml("printed_defaults.yaml", sd.str())).cfar.mode == "2d");
 }
 
 TEST_CASE("dsp options: errors name the file and the key", "[dsp][options]") {

@@ -11,6 +11,19 @@
 
 namespace rsrio::rio {
 
+const char* to_string(FrontendOptions::ImuInterpolation m) {
+  return m == FrontendOptions::ImuInterpolation::kHold ? "hold" : "linear";
+}
+
+bool imu_interpolation_from_string(const std::string& name, FrontendOptions::ImuInterpolation& m) {
+  for (auto c : {FrontendOptions::ImuInterpolation::kLinear, FrontendOptions::ImuInterpolation::kHold})
+    if (name == to_string(c)) {
+      m = c;
+      return true;
+    }
+  return false;
+}
+
 using gtsam::symbol_shorthand::B;
 using gtsam::symbol_shorthand::V;
 using gtsam::symbol_shorthand::X;

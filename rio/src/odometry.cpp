@@ -69,10 +69,9 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   f.read("gyro_bias_random_walk", fo.gyro_bias_random_walk, positive);
   std::vector<double> xyz{fo.body_T_radar.x(), fo.body_T_radar.y(), fo.body_T_radar.z()};
   std::vector<double> rpy = rpy_deg_of(fo.body_T_radar.rotation());
-  std::string imu_interpolation = fo.imu_interpolation == FrontendOptions::ImuInterpolation::kHold ? "hold" : "linear";
+  std::string imu_interpolation = to_string(fo.imu_interpolation);
   f.read_choice("imu_interpolation", imu_interpolation, {"linear", "hold"});
-  fo.imu_interpolation =
-      imu_interpolation == "hold" ? FrontendOptions::ImuInterpolation::kHold : FrontendOptions::ImuInterpolation::kLinear;
+  imu_interpolation_from_string(imu_interpolation, fo.imu_interpolation);  // read_choice checked the name
   read_vec3(f, "radar_translation_m", xyz);
   read_vec3(f, "radar_rpy_deg", rpy);
   fo.body_T_radar = pose_from_xyz_rpy(xyz, rpy);
@@ -129,8 +128,7 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  gyro_noise_density: " << f.gyro_noise_density << "\n"
       << "  accel_bias_random_walk: " << f.accel_bias_random_walk << "\n"
       << "  gyro_bias_random_walk: " << f.gyro_bias_random_walk << "\n"
-      << "  imu_interpolation: " << (f.imu_interpolation == FrontendOptions::ImuInterpolation::kHold ? "hold" : "linear")
-      << "\n"
+      << "  imu_interpolation: " << to_string(f.imu_interpolation) << "\n"
       << "  radar_translation_m: "
       << v3({f.body_T_radar.x(), f.body_T_radar.y(), f.body_T_radar.z()}) << "\n"
       << "  radar_rpy_deg: " << v3(rpy_deg_of(f.body_T_radar.rotation())) << "\n"

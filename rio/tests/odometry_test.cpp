@@ -5,8 +5,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include <catch2/catch_test_macros.hpp>
+#include <catch2/matchers/catch_matchers_string.hpp>
 
 #include "rsrio/common/options.hpp"
 #include "rsrio/eval/trajectory.hpp"
@@ -153,4 +157,35 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);
+}
+
+TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {
+  const auto dir = std::filesystem::temp_directory_path() / "rsrio_odometry_test";
+  std::filesystem::create_directories(dir);
+  const auto load = [](const std::string& path) {
+    OptionsFile file(path);
+    OptionsNode root = file.root();
+    const OdometryOptions o = load_odometry_options(root);
+    root.finish();
+    return o;
+  };
+  for (auto mode : {FrontendOptions::ImuInterpolation::kHold, FrontendOptions::ImuInterpolation::kLinear}) {
+    OdometryOptions o;
+    o.frontend.imu_interpolation = mode;
+    std::ostringstream printed;
+    print(printed, o);
+    CHECK_THAT(printed.str(), Catch::Matchers::ContainsSubstring(std::string("imu_interpolation: ") + to_string(mode)));
+    const std::string path = (dir / "printed.yaml").string();
+    std::ofstream(path) << "%YAML:1.0\n---\n" << printed.str();
+    CHECK(load(path).frontend.imu_interpolation == mode);
+  }
+  const std::string bad = (dir / "bad.yaml").string();
+  std::ofstream(bad) << "%YAML:1.0\n---\nfrontend:\n  imu_interpolation: cubic\n";
+  try {
+    (void)load(bad);
+    FAIL("imu_interpolation: cubic loaded");
+  } catch (const ConfigError& e) {
+    INFO(e.what());
+    CHECK_THAT(e.key(), Catch::Matchers::ContainsSubstring("imu_interpolation"));
+  }
 }

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <functional>
 #include <numbers>
 #include <limits>
@@ -124,6 +125,22 @@ void feed_straight_walk(Backend& backend, const SyntheticRig& rig, int frames, d
 }
 
 }  // namespace
+
+TEST_CASE("Backend options: what print() writes loads back to the same options", "[splat][backend]") {
+  BackendOptions changed;
+  changed.ba_window = "sliding";
+  changed.pose_dof = 6;
+  changed.rd_loss = false;
+  changed.final_ba.max_iterations = 80;
+  changed.body_T_radar.translation() = Eigen::Vector3d(0.1, -0.02, 0.05);
+  for (const BackendOptions& o : {BackendOptions{}, changed}) {
+    std::ostringstream printed;
+    print(printed, o);
+    std::ostringstream again;
+    print(again, load(printed.str()));
+    CHECK(again.str() == printed.str());
+  }
+}
 
 TEST_CASE("Backend options: the backend section is read strictly", "[splat][backend]") {
   const BackendOptions o = load(

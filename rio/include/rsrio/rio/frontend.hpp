@@ -9,6 +9,7 @@
 
 #include <deque>
 #include <optional>
+#include <string>
 
 #include <gtsam/geometry/Pose3.h>
 #include <gtsam/navigation/CombinedImuFactor.h>
@@ -69,6 +70,10 @@ struct FrontendOptions {
   double prior_gyro_bias_sigma = 0.01;
   double init_imu_window_s = 0.2;            // IMU averaged for the initial roll and pitch
 };
+
+/// The config file's name of an ImuInterpolation ("linear", "hold"), and back; false for any other name.
+const char* to_string(FrontendOptions::ImuInterpolation m);
+bool imu_interpolation_from_string(const std::string& name, FrontendOptions::ImuInterpolation& m);
 
 struct ImuSample {
   double t = 0;  // s, IMU clock
