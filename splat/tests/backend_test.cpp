@@ -10,13 +10,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 #include <functional>
 #include <numbers>
 #include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
+#include <sstream>
 #include <tuple>
 
 #include <opencv2/imgcodecs.hpp>
