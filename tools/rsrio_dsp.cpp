@@ -112,6 +112,7 @@ void write_axes_json(const std::string& path, const rsrio::DspGrids& g, const rs
     << "  \"range_bin_m\": " << json_number(g.range_bin_m) << ",\n"
     << "  \"velocity_bin_mps\": " << json_number(g.velocity_bin_mps) << ",\n"
     << "  \"azimuth_sin_bin\": " << json_number(g.azimuth_sin_bin) << ",\n"
+    << "  \"azimuth_unambiguous_sin\": " << json_number(g.azimuth_unambiguous_sin) << ",\n"
     << "  \"ra\": {\"file\": \"ra.npy\", \"dtype\": \"float32\", \"shape\": [" << g.range_bins << ", "
     << g.azimuth_bins
     << "], \"axes\": [\"range_m\", \"azimuth_sin\"], \"value\": \"power summed over Doppler\"},\n"
@@ -128,11 +129,11 @@ void write_axes_json(const std::string& path, const rsrio::DspGrids& g, const rs
 
 void write_points_csv(const std::string& path, std::span<const rsrio::DspPoint> points) {
   std::ofstream f(path);
-  f << "range_m,azimuth_deg,elevation_deg,doppler_mps,snr_db\n" << std::fixed;
+  f << "range_m,azimuth_deg,elevation_deg,doppler_mps,snr_db,azimuth_ambiguous\n" << std::fixed;
   for (const auto& p : points)
     f << std::setprecision(4) << p.range_m << ',' << std::setprecision(3) << p.azimuth_deg << ','
       << p.elevation_deg << ',' << std::setprecision(4) << p.doppler_mps << ',' << std::setprecision(2)
-      << p.snr_db << '\n';
+      << p.snr_db << ',' << (p.azimuth_ambiguous ? 1 : 0) << '\n';
   if (!f) throw InputError(path + ": write failed");
 }
 

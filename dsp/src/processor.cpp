@@ -133,6 +133,7 @@ DspProcessor::Impl::Impl(const RadarConfig& c, const DspOptions& o) : config(c),
   grids.range_bin_m = der.range_bin_size_m;
   grids.velocity_bin_mps = der.velocity_bin_size_mps;
   grids.azimuth_sin_bin = 1.0 / (Na * dsp_d);
+  grids.azimuth_unambiguous_sin = 1.0 / dsp_d - 1.0;
   grids.element_spacing_wavelengths = dsp_d;
   grids.wavelength_m = der.wavelength_m;
   for (int r = 0; r < Nr; ++r) grids.range_m.push_back(r * der.range_bin_size_m);
@@ -775,7 +776,9 @@ void DspProcessor::Impl::make_points() {
       pt.azimuth_bin = static_cast<float>(a) + da;
       pt.range_m = static_cast<float>(pt.range_bin * der.range_bin_size_m);
       pt.doppler_mps = static_cast<float>((pt.doppler_bin - Nd / 2) * der.velocity_bin_size_mps);
-      const double uy = std::clamp((pt.azimuth_bin - Na / 2) * grids.azimuth_sin_bin, -1.0, 1.0);
+      const double uy_grid = (pt.azimuth_bin - Na / 2) * grids.azimuth_sin_bin;
+      pt.azimuth_ambiguous = std::fabs(uy_grid) > grids.azimuth_unambiguous_sin;
+      const double uy = std::clamp(uy_grid, -1.0, 1.0);
       bool measured = false;
       double uz = elevation_uz(r, dp, uy, measured);
       pt.elevation_measured = measured;

@@ -28,7 +28,7 @@ check "openradar run" 0 "points ->" --npy "$npy" --config "$cfg" --out "$tmp/or"
 for f in ra.npy rd.npy rad.npy axes.json points.csv ra.png rd.png; do
   [ -s "$tmp/or/$f" ] && ok "wrote $f" || bad "missing $f"
 done
-head -n 1 "$tmp/or/points.csv" | grep -qx 'range_m,azimuth_deg,elevation_deg,doppler_mps,snr_db' && ok "points.csv header" || bad "points.csv header"
+head -n 1 "$tmp/or/points.csv" | grep -qx 'range_m,azimuth_deg,elevation_deg,doppler_mps,snr_db,azimuth_ambiguous' && ok "points.csv header" || bad "points.csv header"
 # static reflector near 5.21 m at 0 m/s, moving target near 2.93 m at +0.59 m/s
 awk -F, 'NR > 1 && $1 > 5.1 && $1 < 5.35 && $4 > -0.05 && $4 < 0.05 && $5 > 30 { f = 1 } END { exit !f }' "$tmp/or/points.csv" \
   && ok "static reflector in points.csv" || bad "static reflector not in points.csv"

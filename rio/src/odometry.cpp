@@ -57,6 +57,7 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   ev.seed = static_cast<std::uint64_t>(seed);
   e.read("min_range_m", o.points.min_range_m, {0.0, 1000.0});
   e.read("min_snr_db", o.points.min_snr_db, {-100.0, 200.0});
+  e.read("drop_ambiguous_azimuth", o.points.drop_ambiguous_azimuth);
   e.finish();
 
   OptionsNode f = root.child("frontend");
@@ -122,6 +123,7 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  seed: " << e.seed << "\n"
       << "  min_range_m: " << o.points.min_range_m << "\n"
       << "  min_snr_db: " << o.points.min_snr_db << "\n"
+      << "  drop_ambiguous_azimuth: " << b(o.points.drop_ambiguous_azimuth) << "\n"
       << "frontend:\n"
       << "  gravity_mps2: " << f.gravity << "\n"
       << "  accel_noise_density: " << f.accel_noise_density << "\n"
@@ -152,6 +154,16 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  init_imu_window_s: " << f.init_imu_window_s << "\n";
 }
 
+bool accept_point(const PointFilterOptions& filter, const DspPoint& p, DopplerMeasurement& measurement) {
+  if (p.range_m < filter.min_range_m || p.snr_db < filter.min_snr_db) return false;
+  if (filter.drop_ambiguous_azimuth && p.azimuth_ambiguous) return false;
+  const Eigen::Vector3d u(p.x, p.y, p.z);
+  const double n = u.norm();
+  if (!(n > 0)) return false;
+  measurement = {u / n, static_cast<double>(p.doppler_mps)};
+  return true;
+}
+
 Odometry::Odometry(const RadarConfig& radar, const OdometryOptions& options)
     : options_(options),
       dsp_(radar, options.dsp),
@@ -176,13 +188,9 @@ const FrameInfo& Odometry::add_radar_frame(double t_stamp, const AdcCube& cube) 
 
   const auto t1 = std::chrono::steady_clock::now();
   measurements_.clear();
-  for (const DspPoint& p : dsp.points) {
-    if (p.range_m < options_.points.min_range_m || p.snr_db < options_.points.min_snr_db) continue;
-    const Eigen::Vector3d u(p.x, p.y, p.z);
-    const double n = u.norm();
-    if (!(n > 0)) continue;
-    measurements_.push_back({u / n, static_cast<double>(p.doppler_mps)});
-  }
+  DopplerMeasurement m;
+  for (const DspPoint& p : dsp.points)
+    if (accept_point(options_.points, p, m)) measurements_.push_back(m);
   info.measurements = static_cast<int>(measurements_.size());
   info.ego = ego_.estimate(measurements_, info.index);
   info.ego_ms = ms_since(t1);

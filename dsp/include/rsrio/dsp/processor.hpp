@@ -66,6 +66,10 @@
 //                            (positive = receding; unambiguous [-v_max, v_max) )
 //   azimuth   a = 0..N_a-1   azimuth_sin[a] = (a - N_a/2) / (N_a d)      (= u_y, sin(az) at el 0)
 //                            azimuth_deg[a] = asin(azimuth_sin[a]), NaN where |sin| > 1
+//                            The grid spans u_y in [-1/(2d), 1/(2d)); with d > 1/2 (the cascade's
+//                            0.513 at the chirps' centre) a return beyond its edge wraps by 1/d
+//                            to the other side, so a point with |u_y| > azimuth_unambiguous_sin
+//                            = 1/d - 1 may be such an alias (DspPoint::azimuth_ambiguous).
 //   Layouts (row-major, last index fastest):
 //     rad  float32 [range][doppler][azimuth]   (the angle spectrum of each range-Doppler cell
 //                                              contiguous)
@@ -130,6 +134,7 @@ struct DspGrids {
   double range_bin_m = 0;
   double velocity_bin_mps = 0;
   double azimuth_sin_bin = 0;  // 1 / (N_a d)
+  double azimuth_unambiguous_sin = 0;  // 1/d - 1: beyond, a point may be a wrapped return
   double element_spacing_wavelengths = 0;
   double wavelength_m = 0;
   std::vector<double> range_m;
@@ -169,6 +174,9 @@ struct DspPoint {
   float doppler_bin = 0;
   float azimuth_bin = 0;
   bool elevation_measured = false;
+  // |u_y| beyond grids().azimuth_unambiguous_sin: the return may lie 1/d across, on the other
+  // side (a wall 80 deg to the left comes out at -77 deg on the cascade), and its side is unknown.
+  bool azimuth_ambiguous = false;
   int detection = 0;  // index into DspResult::detections
 };
 

@@ -40,7 +40,16 @@ namespace rsrio::rio {
 struct PointFilterOptions {
   double min_range_m = 0.5;   // the nearest metre is leakage and the rig itself
   double min_snr_db = 10.0;   // coherent SNR of the point
+  // Points whose azimuth may be a return wrapped from beyond the grid's edge
+  // (DspPoint::azimuth_ambiguous; none on arrays spaced lambda/2 or closer). Their Doppler says
+  // little about a forward walk either way, but in a turn on the spot the radar's own lateral
+  // velocity (omega x lever arm) is all there is to see, and a wrapped return reads it with the
+  // wrong sign: kept, they pull the lateral velocity towards zero (rio/RESULTS.md, 2026-12-06).
+  bool drop_ambiguous_azimuth = false;
 };
+
+/// Whether `p` passes `filter`; the measurement it gives (unit direction, Doppler) if so.
+bool accept_point(const PointFilterOptions& filter, const DspPoint& p, DopplerMeasurement& measurement);
 
 struct OdometryOptions {
   DspOptions dsp;
