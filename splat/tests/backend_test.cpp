@@ -4,6 +4,7 @@
 #include <catch2/generators/catch_generators.hpp>
 
 #include <malloc.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -34,8 +35,10 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
+// Named by the process: ctest runs this file's test cases side by side, each in its own process,
+// and two writing one file had one read the other's options.
 std::filesystem::path write_file(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / name;
+  const auto p = std::filesystem::temp_directory_path() / ("rsrio_" + std::to_string(::getpid()) + "_" + name);
   std::ofstream(p) << text;
   return p;
 }
