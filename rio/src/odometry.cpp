@@ -72,7 +72,8 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   std::vector<double> rpy = rpy_deg_of(fo.body_T_radar.rotation());
   std::string imu_interpolation = to_string(fo.imu_interpolation);
   f.read_choice("imu_interpolation", imu_interpolation, {"linear", "hold"});
-  imu_interpolation_from_string(imu_interpolation, fo.imu_interpolation);  // read_choice checked the name
+  if (!imu_interpolation_from_string(imu_interpolation, fo.imu_interpolation))  // read_choice's list and the enum disagree
+    f.fail("imu_interpolation", "a name the frontend knows, got '" + imu_interpolation + "'");
   read_vec3(f, "radar_translation_m", xyz);
   read_vec3(f, "radar_rpy_deg", rpy);
   fo.body_T_radar = pose_from_xyz_rpy(xyz, rpy);

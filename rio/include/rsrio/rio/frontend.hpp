@@ -73,7 +73,7 @@ struct FrontendOptions {
 
 /// The config file's name of an ImuInterpolation ("linear", "hold"), and back; false for any other name.
 const char* to_string(FrontendOptions::ImuInterpolation m);
-bool imu_interpolation_from_string(const std::string& name, FrontendOptions::ImuInterpolation& m);
+[[nodiscard]] bool imu_interpolation_from_string(const std::string& name, FrontendOptions::ImuInterpolation& m);
 
 struct ImuSample {
   double t = 0;  // s, IMU clock
