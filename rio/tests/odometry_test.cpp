@@ -3,6 +3,8 @@
 // people against the ego-velocity.
 #include "rsrio/rio/odometry.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -143,6 +145,25 @@ TEST_CASE("people walking in front of the radar do not move the ego-velocity bey
   CHECK(median < 0.04);  // without the people: about 0.012
 }
 
+namespace {
+
+// Per process: ctest runs the test cases side by side.
+std::filesystem::path options_dir() {
+  const auto dir = std::filesystem::temp_directory_path() / ("rsrio_odometry_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+OdometryOptions load_file(const std::string& path) {
+  OptionsFile file(path);
+  OptionsNode root = file.root();
+  const OdometryOptions o = load_odometry_options(root);
+  root.finish();
+  return o;
+}
+
+}  // namespace
+
 TEST_CASE("odometry options load strictly from the sections and print back", "[odometry]") {
   OptionsFile file("config/rsrio.yaml");
   OptionsNode root = file.root();
@@ -159,16 +180,30 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.radar_time_offset_s == 0.004);
 }
 
+TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wrong value names its key",
+          "[odometry]") {
+  const auto dir = options_dir();
+  CHECK_FALSE(OdometryOptions{}.points.drop_ambiguous_azimuth);
+  OdometryOptions o;
+  o.points.drop_ambiguous_azimuth = true;
+  std::ostringstream printed;
+  print(printed, o);
+  const std::string path = (dir / "points.yaml").string();
+  std::ofstream(path) << "%YAML:1.0\n---\n" << printed.str();
+  CHECK(load_file(path).points.drop_ambiguous_azimuth);
+  const std::string bad = (dir / "bad_points.yaml").string();
+  std::ofstream(bad) << "%YAML:1.0\n---\nego_velocity:\n  drop_ambiguous_azimuth: maybe\n";
+  try {
+    (void)load_file(bad);
+    FAIL("drop_ambiguous_azimuth: maybe loaded");
+  } catch (const ConfigError& e) {
+    INFO(e.what());
+    CHECK_THAT(e.key(), Catch::Matchers::ContainsSubstring("drop_ambiguous_azimuth"));
+  }
+}
+
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {
-  const auto dir = std::filesystem::temp_directory_path() / "rsrio_odometry_test";
-  std::filesystem::create_directories(dir);
-  const auto load = [](const std::string& path) {
-    OptionsFile file(path);
-    OptionsNode root = file.root();
-    const OdometryOptions o = load_odometry_options(root);
-    root.finish();
-    return o;
-  };
+  const auto dir = options_dir();
   for (auto mode : {FrontendOptions::ImuInterpolation::kHold, FrontendOptions::ImuInterpolation::kLinear}) {
     OdometryOptions o;
     o.frontend.imu_interpolation = mode;
@@ -177,12 +212,12 @@ TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name na
     CHECK_THAT(printed.str(), Catch::Matchers::ContainsSubstring(std::string("imu_interpolation: ") + to_string(mode)));
     const std::string path = (dir / "printed.yaml").string();
     std::ofstream(path) << "%YAML:1.0\n---\n" << printed.str();
-    CHECK(load(path).frontend.imu_interpolation == mode);
+    CHECK(load_file(path).frontend.imu_interpolation == mode);
   }
   const std::string bad = (dir / "bad.yaml").string();
   std::ofstream(bad) << "%YAML:1.0\n---\nfrontend:\n  imu_interpolation: cubic\n";
   try {
-    (void)load(bad);
+    (void)load_file(bad);
     FAIL("imu_interpolation: cubic loaded");
   } catch (const ConfigError& e) {
     INFO(e.what());
