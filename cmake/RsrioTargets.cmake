@@ -1,10 +1,11 @@
 # rsrio_add_test(NAME name SOURCES ... LIBS ... [LABELS ...])
-# A Catch2 test executable next to the code it tests, discovered into ctest case by case.
+# A Catch2 test executable next to the code it tests, discovered into ctest case by case, with
+# the tests' shared helpers (common/tests/support) on its include path.
 # Label `concurrency` marks the tests that also run under the thread sanitizer.
 function(rsrio_add_test)
   cmake_parse_arguments(T "" "NAME" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${T_NAME} ${T_SOURCES})
-  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} Catch2::Catch2WithMain)
+  target_link_libraries(${T_NAME} PRIVATE ${T_LIBS} rsrio_test_support Catch2::Catch2WithMain)
   rsrio_target_options(${T_NAME})
   set(props)
   if(T_LABELS)

@@ -4,8 +4,6 @@
 // the way TI's scripts do (readDCA1000.m for the 2-lane LVDS stream; the MMWCAS per-device
 // [loop][chirp][sample][rx 4] I/Q layout of TI's cascade scripts), so a layout mistake shared by
 // the encoder and the decoder cannot pass.
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -21,20 +19,11 @@
 #include "rsrio/driver/ti_files.hpp"
 #include "rsrio/sim/scenario.hpp"
 #include "rsrio/sim/simulation.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct TempDir {
-  fs::path path;
-  explicit TempDir(const std::string& name)
-      : path(fs::temp_directory_path() / ("rsrio_ti_files_sim_" + std::to_string(::getpid()) + "_" + name)) {
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
 
 std::vector<std::int16_t> read_int16(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -66,8 +55,8 @@ TEST_CASE("adc_data.bin of simulated xwr1843 frames reads back as TI's readDCA10
   REQUIRE(c.capture.sample_layout == "iiqq");
   REQUIRE(c.capture.iq_order == "i_first");
   const auto cubes = simulate(scenario, 3);
-  TempDir dir("xwr1843");
-  const fs::path file = dir.path / "adc_data.bin";
+  const rsrio::testing::ScratchDir dir("ti_files_sim_xwr1843");
+  const fs::path file = dir.path() / "adc_data.bin";
   {
     rsrio::Dca1000FileWriter w(file.string(), c);
     std::vector<std::uint8_t> bytes;
@@ -123,9 +112,9 @@ TEST_CASE("cascade device files of simulated mmwcas frames read back as TI's cas
   rsrio::validate(scenario.radar);
   const rsrio::RadarConfig& c = scenario.radar;
   const auto cubes = simulate(scenario, 2);
-  TempDir dir("mmwcas");
+  const rsrio::testing::ScratchDir dir("ti_files_sim_mmwcas");
   {
-    rsrio::CascadeWriter w(dir.path.string(), c);
+    rsrio::CascadeWriter w(dir.path().string(), c);
     std::vector<std::uint8_t> bytes;
     for (std::size_t k = 0; k < cubes.size(); ++k) {
       rsrio::encode_frame(c, cubes[k], bytes);
@@ -137,7 +126,7 @@ TEST_CASE("cascade device files of simulated mmwcas frames read back as TI's cas
   REQUIRE(cubes[0].rx == rsrio::kCascadeDevices * rsrio::kCascadeRxPerDevice);
   std::size_t mismatches = 0, nonzero = 0;
   for (int d = 0; d < rsrio::kCascadeDevices; ++d) {
-    const auto raw = read_int16(dir.path / (std::string(rsrio::kCascadeDeviceNames[std::size_t(d)]) + "_0000_data.bin"));
+    const auto raw = read_int16(dir.path() / (std::string(rsrio::kCascadeDeviceNames[std::size_t(d)]) + "_0000_data.bin"));
     REQUIRE(raw.size() == cubes.size() * std::size_t(cubes[0].loops) * slots * n * 4 * 2);
     for (std::size_t k = 0; k < cubes.size(); ++k) {
       const auto& cube = cubes[k];
@@ -158,7 +147,7 @@ TEST_CASE("cascade device files of simulated mmwcas frames read back as TI's cas
   CHECK(mismatches == 0);
   CHECK(nonzero > 0);
 
-  rsrio::CascadeReader reader(dir.path.string(), c);
+  rsrio::CascadeReader reader(dir.path().string(), c);
   REQUIRE(reader.frames() == 2);
   CHECK(reader.damage().empty());
   CHECK(reader.timestamp(1) == 1000);

@@ -6,23 +6,13 @@
 #include <fstream>
 #include <random>
 
-#include <unistd.h>
-
 #include <catch2/catch_test_macros.hpp>
+
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    path = fs::temp_directory_path() / ("rsrio_ti_files_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-  static inline int counter = 0;
-};
 
 rsrio::AdcCube random_cube(const rsrio::RadarConfig& c, unsigned seed) {
   auto cube = rsrio::AdcCube::for_config(c);
@@ -37,8 +27,8 @@ rsrio::AdcCube random_cube(const rsrio::RadarConfig& c, unsigned seed) {
 TEST_CASE("DCA1000 capture file: frames back to back, trailing padding reported", "[ti_files]") {
   auto c = rsrio::radar_preset("xwr1843");
   c.loops = 4;
-  TempDir dir;
-  const std::string path = (dir.path / "adc_data.bin").string();
+  const rsrio::testing::ScratchDir dir("ti_files_test");
+  const std::string path = dir.file("adc_data.bin");
   std::vector<rsrio::AdcCube> cubes;
   {
     rsrio::Dca1000FileWriter w(path, c);
@@ -70,10 +60,10 @@ TEST_CASE("cascade recording: per-device data and index files round-trip into 4-
   c.chirp.samples_per_chirp = 32;
   c.chirp.ramp_end_time_us = 20.0;
   rsrio::validate(c);
-  TempDir dir;
+  const rsrio::testing::ScratchDir dir("ti_files_test");
   std::vector<rsrio::AdcCube> cubes;
   {
-    rsrio::CascadeWriter w(dir.path.string(), c);
+    rsrio::CascadeWriter w(dir.path().string(), c);
     for (unsigned i = 0; i < 4; ++i) {
       cubes.push_back(random_cube(c, 10 + i));
       std::vector<std::uint8_t> bytes;
@@ -82,17 +72,17 @@ TEST_CASE("cascade recording: per-device data and index files round-trip into 4-
     }
   }
   for (const char* dev : {"master", "slave1", "slave2", "slave3"}) {
-    CHECK(fs::file_size(dir.path / (std::string(dev) + "_0000_data.bin")) == 4 * rsrio::cascade_device_frame_bytes(c));
-    CHECK(fs::file_size(dir.path / (std::string(dev) + "_0000_idx.bin")) == 24 + 4 * 48);
+    CHECK(fs::file_size(dir.path() / (std::string(dev) + "_0000_data.bin")) == 4 * rsrio::cascade_device_frame_bytes(c));
+    CHECK(fs::file_size(dir.path() / (std::string(dev) + "_0000_idx.bin")) == 24 + 4 * 48);
   }
   // The index header as TI's getValidNumFrames reads it: numIdx is the 4th uint32.
-  std::ifstream idx(dir.path / "slave2_0000_idx.bin", std::ios::binary);
+  std::ifstream idx(dir.path() / "slave2_0000_idx.bin", std::ios::binary);
   std::uint32_t h[6];
   idx.read(reinterpret_cast<char*>(h), sizeof h);
   CHECK(h[3] == 4);
   CHECK(h[4] == 4 * rsrio::cascade_device_frame_bytes(c));
 
-  rsrio::CascadeReader r(dir.path.string(), c);
+  rsrio::CascadeReader r(dir.path().string(), c);
   REQUIRE(r.frames() == 4);
   CHECK(r.damage().empty());
   CHECK(r.timestamp(3) == 3000000);
@@ -102,13 +92,13 @@ TEST_CASE("cascade recording: per-device data and index files round-trip into 4-
     CHECK(back.data == cubes[i].data);
   }
   // Cut slave3's data inside frame 2: frames 0 and 1 still read, the damage is named.
-  fs::resize_file(dir.path / "slave3_0000_data.bin", 2 * rsrio::cascade_device_frame_bytes(c) + 100);
-  rsrio::CascadeReader cut(dir.path.string(), c);
+  fs::resize_file(dir.path() / "slave3_0000_data.bin", 2 * rsrio::cascade_device_frame_bytes(c) + 100);
+  rsrio::CascadeReader cut(dir.path().string(), c);
   CHECK(cut.frames() == 2);
   CHECK(cut.damage().find("slave3_0000_data.bin: ends inside frame 2") != std::string::npos);
   // A configuration that does not match the recording is refused with the reason.
   auto wrong = c;
   wrong.loops = 3;
-  CHECK_THROWS_AS(rsrio::CascadeReader(dir.path.string(), wrong), std::runtime_error);
-  CHECK_THROWS_AS(rsrio::CascadeReader((dir.path / "nothing").string(), c), std::runtime_error);
+  CHECK_THROWS_AS(rsrio::CascadeReader(dir.path().string(), wrong), std::runtime_error);
+  CHECK_THROWS_AS(rsrio::CascadeReader((dir.path() / "nothing").string(), c), std::runtime_error);
 }

@@ -11,15 +11,16 @@
 #include <string>
 #include <vector>
 
+#include "scratch_dir.hpp"
+
 using namespace rsrio;
 using Catch::Matchers::ContainsSubstring;
 
 namespace {
 
 std::string temp_path(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / "rsrio_npy_test";
-  std::filesystem::create_directories(dir);
-  return (dir / name).string();
+  static const rsrio::testing::ScratchDir dir("npy_test");
+  return dir.file(name);
 }
 
 void write_bytes(const std::string& path, const std::string& header_dict, std::size_t data_bytes,

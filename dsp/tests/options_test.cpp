@@ -4,12 +4,11 @@
 
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_string.hpp>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 
 #include "rsrio/dsp/dsp_options.hpp"
+#include "scratch_dir.hpp"
 
 using namespace rsrio;
 using Catch::Matchers::ContainsSubstring;
@@ -17,11 +16,8 @@ using Catch::Matchers::ContainsSubstring;
 namespace {
 
 std::string write_yaml(const std::string& name, const std::string& body) {
-  const auto dir = std::filesystem::temp_directory_path() / "rsrio_dsp_options_test";
-  std::filesystem::create_directories(dir);
-  const std::string p = (dir / name).string();
-  std::ofstream(p) << "%YAML:1.0\n---\n" << body;
-  return p;
+  static const rsrio::testing::ScratchDir dir("dsp_options_test");
+  return dir.write(name, "%YAML:1.0\n---\n" + body);
 }
 
 DspOptions load(const std::string& path) {

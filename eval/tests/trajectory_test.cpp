@@ -5,12 +5,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include <unistd.h>
-
 #include <catch2/catch_approx.hpp>
 #include <catch2/catch_test_macros.hpp>
 
 #include "rsrio/eval/plot.hpp"
+#include "scratch_dir.hpp"
 
 using Catch::Approx;
 using namespace rsrio::eval;
@@ -131,8 +130,8 @@ TEST_CASE("RPE takes its pairs from the estimate's path, as evo_rpe", "[eval]") 
 }
 
 TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are named", "[eval]") {
-  const auto dir = std::filesystem::temp_directory_path();
-  const std::string path = (dir / ("rsrio_eval_" + std::to_string(::getpid()) + ".tum")).string();
+  const rsrio::testing::ScratchDir dir("trajectory_test");
+  const std::string path = dir.file("trajectory.tum");
   const auto ref = from_points({{0, 0, 0}, {1, 2, 3}, {4, 5, 6}}, 30);
   write_tum(path, ref);
   const auto back = read_tum(path);
@@ -165,8 +164,6 @@ TEST_CASE("TUM files round-trip, association pairs nearest stamps, bad lines are
   const std::string png = path + ".png";
   plot_xy(png, {{"reference", &ref, {0, 0, 0}}}, "test");
   CHECK(std::filesystem::file_size(png) > 1000);
-  std::filesystem::remove(path);
-  std::filesystem::remove(png);
 }
 
 namespace {

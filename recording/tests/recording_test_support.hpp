@@ -2,10 +2,7 @@
 // independently of the reader (it trusts nothing but the spec) to find where records are.
 #pragma once
 
-#include <unistd.h>
-
 #include <cstdint>
-#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <random>
@@ -14,29 +11,11 @@
 
 #include "rsrio/common/radar_config.hpp"
 #include "rsrio/recording/recording.hpp"
+#include "scratch_dir.hpp"
 
 namespace rsrio::test {
 
-/// A directory under the system temp dir, removed with everything in it at scope exit.
-class ScratchDir {
- public:
-  explicit ScratchDir(const std::string& name)
-      : path_(std::filesystem::temp_directory_path() /
-              ("rsrio_recording_" + name + "_" + std::to_string(::getpid()))) {
-    std::filesystem::remove_all(path_);
-    std::filesystem::create_directories(path_);
-  }
-  ~ScratchDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path_, ignored);
-  }
-  ScratchDir(const ScratchDir&) = delete;
-  ScratchDir& operator=(const ScratchDir&) = delete;
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  std::filesystem::path path_;
-};
+using rsrio::testing::ScratchDir;
 
 inline constexpr std::uint64_t kT0 = 1'700'000'000'000'000'000ull;  // 2023-11-14, ns since the epoch
 

@@ -3,12 +3,8 @@
 // people against the ego-velocity.
 #include "rsrio/rio/odometry.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <sstream>
 
 #include <catch2/catch_test_macros.hpp>
@@ -17,6 +13,7 @@
 #include "rsrio/common/options.hpp"
 #include "rsrio/eval/trajectory.hpp"
 #include "rsrio/sim/simulation.hpp"
+#include "scratch_dir.hpp"
 
 using namespace rsrio;
 using namespace rsrio::rio;
@@ -147,13 +144,6 @@ TEST_CASE("people walking in front of the radar do not move the ego-velocity bey
 
 namespace {
 
-// Per process: ctest runs the test cases side by side.
-std::filesystem::path options_dir() {
-  const auto dir = std::filesystem::temp_directory_path() / ("rsrio_odometry_test_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
 OdometryOptions load_file(const std::string& path) {
   OptionsFile file(path);
   OptionsNode root = file.root();
@@ -182,17 +172,15 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
 
 TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wrong value names its key",
           "[odometry]") {
-  const auto dir = options_dir();
+  const rsrio::testing::ScratchDir dir("odometry_test");
   CHECK_FALSE(OdometryOptions{}.points.drop_ambiguous_azimuth);
   OdometryOptions o;
   o.points.drop_ambiguous_azimuth = true;
   std::ostringstream printed;
   print(printed, o);
-  const std::string path = (dir / "points.yaml").string();
-  std::ofstream(path) << "%YAML:1.0\n---\n" << printed.str();
+  const std::string path = dir.write("points.yaml", "%YAML:1.0\n---\n" + printed.str());
   CHECK(load_file(path).points.drop_ambiguous_azimuth);
-  const std::string bad = (dir / "bad_points.yaml").string();
-  std::ofstream(bad) << "%YAML:1.0\n---\nego_velocity:\n  drop_ambiguous_azimuth: maybe\n";
+  const std::string bad = dir.write("bad_points.yaml", "%YAML:1.0\n---\nego_velocity:\n  drop_ambiguous_azimuth: maybe\n");
   try {
     (void)load_file(bad);
     FAIL("drop_ambiguous_azimuth: maybe loaded");
@@ -203,19 +191,17 @@ TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wr
 }
 
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {
-  const auto dir = options_dir();
+  const rsrio::testing::ScratchDir dir("odometry_test");
   for (auto mode : {FrontendOptions::ImuInterpolation::kHold, FrontendOptions::ImuInterpolation::kLinear}) {
     OdometryOptions o;
     o.frontend.imu_interpolation = mode;
     std::ostringstream printed;
     print(printed, o);
     CHECK_THAT(printed.str(), Catch::Matchers::ContainsSubstring(std::string("imu_interpolation: ") + to_string(mode)));
-    const std::string path = (dir / "printed.yaml").string();
-    std::ofstream(path) << "%YAML:1.0\n---\n" << printed.str();
+    const std::string path = dir.write("printed.yaml", "%YAML:1.0\n---\n" + printed.str());
     CHECK(load_file(path).frontend.imu_interpolation == mode);
   }
-  const std::string bad = (dir / "bad.yaml").string();
-  std::ofstream(bad) << "%YAML:1.0\n---\nfrontend:\n  imu_interpolation: cubic\n";
+  const std::string bad = dir.write("bad.yaml", "%YAML:1.0\n---\nfrontend:\n  imu_interpolation: cubic\n");
   try {
     (void)load_file(bad);
     FAIL("imu_interpolation: cubic loaded");

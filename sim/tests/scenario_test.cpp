@@ -1,9 +1,6 @@
 // The shipped scenarios against the paper's Table I, and the scenario loader's strictness.
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <numbers>
 #include <string>
@@ -12,6 +9,7 @@
 
 #include "rsrio/common/options.hpp"
 #include "rsrio/sim/scenario.hpp"
+#include "scratch_dir.hpp"
 
 using namespace rsrio::sim;
 namespace fs = std::filesystem;
@@ -31,10 +29,8 @@ const std::map<std::string, Sequence> kTableI = {
 const fs::path kScenarios = "scenarios";
 
 fs::path write_temp(const std::string& name, const std::string& text) {
-  // Unique to this process: several builds may run their tests at once.
-  const fs::path p = fs::temp_directory_path() / ("rsrio_sim_test_" + std::to_string(getpid()) + "_" + name + ".yaml");
-  std::ofstream(p) << text;
-  return p;
+  static const rsrio::testing::ScratchDir dir("sim_scenario_test");
+  return dir.write(name + ".yaml", text);
 }
 
 std::string error_of(const std::string& name, const std::string& text) {

@@ -1,7 +1,6 @@
 // rsrio-sim end to end: the recording it writes holds what the library makes, in log-time order,
 // with the right stamps and frames; bad input gives exit code 2 and names the problem.
 #include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -16,6 +15,7 @@
 #include "rsrio/recording/recording.hpp"
 #include "rsrio/sim/scenario.hpp"
 #include "rsrio/sim/simulation.hpp"
+#include "scratch_dir.hpp"
 
 namespace fs = std::filesystem;
 
@@ -26,9 +26,9 @@ struct Run {
   std::string err;
 };
 
-// Temporary paths unique to this process: test cases may run in parallel (ctest -j, several builds).
 fs::path temp(const std::string& name) {
-  return fs::temp_directory_path() / ("rsrio_sim_tool_test_" + std::to_string(getpid()) + "_" + name);
+  static const rsrio::testing::ScratchDir dir("sim_tool_test");
+  return dir.path() / name;
 }
 
 Run run(const std::string& args) {

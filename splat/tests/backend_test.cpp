@@ -4,13 +4,11 @@
 #include <catch2/generators/catch_generators.hpp>
 
 #include <malloc.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <numbers>
 #include <limits>
@@ -25,6 +23,7 @@
 
 #include "rsrio/splat/backend.hpp"
 #include "rsrio/splat/image_dump.hpp"
+#include "scratch_dir.hpp"
 #include "splat_test_support.hpp"
 #include "synthetic_frame.hpp"
 
@@ -35,17 +34,9 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// Named by the process: ctest runs this file's test cases side by side, each in its own process,
-// and two writing one file had one read the other's options.
-std::filesystem::path write_file(const std::string& name, const std::string& text) {
-  const auto p = std::filesystem::temp_directory_path() / ("rsrio_" + std::to_string(::getpid()) + "_" + name);
-  std::ofstream(p) << text;
-  return p;
-}
-
 BackendOptions load(const std::string& yaml) {
-  const auto p = write_file("backend_options_test.yaml", yaml);
-  rsrio::OptionsFile f(p.string());
+  static const rsrio::testing::ScratchDir dir("backend_test");
+  rsrio::OptionsFile f(dir.write("backend_options_test.yaml", yaml));
   return load_backend_options(f.root().child("backend"));
 }
 
@@ -1024,8 +1015,8 @@ TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[spl
   std::printf("first keyframe: compressed RA correlation measured vs rendered after mapping %.3f\n", corr);
   CHECK(corr > 0.9);
 
-  const auto dir = std::filesystem::temp_directory_path() / "splat_pngs";
-  std::filesystem::create_directories(dir);
+  const rsrio::testing::ScratchDir pngs("splat_pngs");
+  const std::filesystem::path& dir = pngs.path();
   ImagePairOptions po;
   po.scale = 2;
   write_keyframe_pngs((dir / "kf0").string(), k, po);
@@ -1042,7 +1033,6 @@ TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[spl
   cv::minMaxLoc(grey, &lo, &hi);
   CHECK(hi - lo > 100);  // a picture, not a flat field
   CHECK_THROWS_AS(write_image_pair_png((dir / "bad.png").string(), k.ra_measured, k.rd_rendered), std::runtime_error);
-  std::filesystem::remove_all(dir);
 }
 
 TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's basin is aligned and the loop closed",
