@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -42,7 +43,7 @@ class ScratchDir {
   }
 
  private:
-  static inline int next_ = 0;
+  static inline std::atomic<int> next_{0};
   std::filesystem::path path_;
 };
 
