@@ -3,26 +3,23 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <string>
-
-#include <unistd.h>
 
 #include <catch2/catch_test_macros.hpp>
 
 #include "rsrio/common/radar_config.hpp"
+#include "scratch_dir.hpp"
 
 namespace {
 
+// One options file with this text, in the process's scratch directory.
 struct TempFile {
   std::filesystem::path path;
-  explicit TempFile(const std::string& text, const std::string& ext = ".yaml") {
+  explicit TempFile(const std::string& text) {
+    static const rsrio::testing::ScratchDir dir("options_test");
     static int n = 0;
-    path = std::filesystem::temp_directory_path() /
-           ("rsrio_options_test_" + std::to_string(::getpid()) + "_" + std::to_string(n++) + ext);
-    std::ofstream(path) << text;
+    path = dir.write("options_" + std::to_string(n++) + ".yaml", text);
   }
-  ~TempFile() { std::filesystem::remove(path); }
 };
 
 rsrio::RadarConfig load(const std::string& path) {
