@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "../src/crc32.hpp"
 #include "rsrio/common/radar_config.hpp"
 #include "rsrio/recording/recording.hpp"
@@ -64,7 +66,9 @@ int main() {
     return ms;
   };
   const double null_ms = write_ms("/dev/null");
-  const std::string file = (std::filesystem::temp_directory_path() / "rsrio-recording-bench.mcap").string();
+  // Named after the process: two benches at once (CI beside a developer's run) write files of their own.
+  const std::string file =
+      (std::filesystem::temp_directory_path() / ("rsrio-recording-bench-" + std::to_string(getpid()) + ".mcap")).string();
   const double file_ms = write_ms(file);
   std::filesystem::remove(file);
 
