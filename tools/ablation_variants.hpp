@@ -19,7 +19,7 @@ struct Variant {
   const char* replay_option = nullptr;  // one more rsrio-replay option, or none
 };
 inline constexpr Variant kFull{"replay", "full (r_BA = 10 m, RA + RD, priors, level floor, loops)", "ba", "",
-                        "[0.93 / 3.03]  (no prior, z from its frontend)"};
+                               "[0.93 / 3.03]  (no prior, z from its frontend)"};
 inline constexpr std::array<Variant, 16> kAblations{{
     {"ablation_noba", "no BA (pose refinement + mapping only)", "ba", "  ba: {max_iterations: 0}\n", "[2.83 / 8.23]"},
     {"ablation_r1", "r_BA = 1 m", "ba", "  ba_radius_m: 1.0\n", "[3.12 / 7.98]"},

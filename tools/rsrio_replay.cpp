@@ -66,6 +66,7 @@
 #include "rsrio/driver/adc_layout.hpp"
 #include "rsrio/eval/trajectory.hpp"
 #include "rsrio/recording/recording.hpp"
+#include "rsrio/runtime/estimator_options.hpp"
 #include "rsrio/runtime/keyframe_handoff.hpp"
 #include "rsrio/rio/odometry.hpp"
 #include "cli_numbers.hpp"
@@ -428,13 +429,12 @@ int main(int argc, char** argv) {
               &drift_text)
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
-  rsrio::rio::OdometryOptions options;
-  rsrio::splat::BackendOptions backend_options;
-  if (auto rc = rsrio::load_program_config(cli, kProgram, [&](rsrio::OptionsNode& root) {
-        options = rsrio::rio::load_odometry_options(root);
-        if (root.has("backend")) backend_options = rsrio::splat::load_backend_options(root.child("backend"));
-      }))
+  rsrio::EstimatorOptions estimator;
+  if (auto rc = rsrio::load_program_config(
+          cli, kProgram, [&](rsrio::OptionsNode& root) { estimator = rsrio::load_estimator_options(root); }))
     return *rc;
+  rsrio::rio::OdometryOptions& options = estimator.odometry;
+  rsrio::splat::BackendOptions& backend_options = estimator.backend;
   if (input.empty() || out_dir.empty()) return cli.usage_error("--input and --out are required");
   std::uint64_t pictures = 0;
   if (!rsrio::tools::parse_u64(pictures_text, pictures) || pictures > 1000)

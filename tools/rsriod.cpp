@@ -16,6 +16,7 @@
 #include "rsrio/common/options.hpp"
 #include "rsrio/recording/recording.hpp"
 #include "rsrio/runtime/dds.hpp"
+#include "rsrio/runtime/estimator_options.hpp"
 #include "rsrio/runtime/pipeline.hpp"
 #include "rsrio/runtime/systemd_notify.hpp"
 #include "rsrio/splat/backend.hpp"
@@ -49,8 +50,7 @@ int main(int argc, char** argv) {
   rsrio::DaemonOptions daemon;
   rsrio::RadarConfig radar = rsrio::radar_preset("xwr1843");
   bool radar_given = false;
-  rsrio::rio::OdometryOptions stage;
-  rsrio::splat::BackendOptions backend;
+  rsrio::EstimatorOptions estimator;
   if (auto rc = rsrio::load_program_config(cli, "rsriod", [&](rsrio::OptionsNode& root) {
         if (root.has("daemon")) {
           rsrio::OptionsNode n = root.child("daemon");
@@ -61,10 +61,11 @@ int main(int argc, char** argv) {
           radar = rsrio::load_radar_config(n);
           radar_given = true;
         }
-        stage = rsrio::rio::load_odometry_options(root);  // dsp:, ego_velocity:, frontend:
-        if (root.has("backend")) backend = rsrio::splat::load_backend_options(root.child("backend"));
+        estimator = rsrio::load_estimator_options(root);
       }))
     return *rc;
+  rsrio::rio::OdometryOptions& stage = estimator.odometry;
+  rsrio::splat::BackendOptions& backend = estimator.backend;
   if (!source.empty()) daemon.radar_source = source;
   if (!imu_source.empty()) daemon.imu_source = imu_source;
   try {

@@ -11,8 +11,7 @@
 
 #include "../ablation_variants.hpp"
 #include "rsrio/common/options.hpp"
-#include "rsrio/rio/odometry.hpp"
-#include "rsrio/splat/backend.hpp"
+#include "rsrio/runtime/estimator_options.hpp"
 #include "scratch_dir.hpp"
 
 namespace {
@@ -25,17 +24,16 @@ std::string shipped_options() {
   return text.str();
 }
 
-// What rsrio-replay reads from its --config file (rsrio::load_program_config with its reader).
+// What rsrio-replay reads from its --config file: rsrio::load_program_config's log_level (not
+// called itself: it registers a logger, once a process) and the estimator's sections, strictly.
 rsrio::splat::BackendOptions load_as_replay(const std::string& path) {
   rsrio::OptionsFile file(path);
   rsrio::OptionsNode root = file.root();
   std::string level = "info";
   root.read_choice("log_level", level, {"trace", "debug", "info", "warn", "error", "critical", "off"});
-  (void)rsrio::rio::load_odometry_options(root);
-  rsrio::splat::BackendOptions backend;
-  if (root.has("backend")) backend = rsrio::splat::load_backend_options(root.child("backend"));
+  const rsrio::EstimatorOptions options = rsrio::load_estimator_options(root);
   root.finish();
-  return backend;
+  return options.backend;
 }
 
 }  // namespace
