@@ -209,7 +209,15 @@ FrontendState RioFrontend::state(std::uint64_t k, double t_radar, bool radar_use
   }
   s.world_T_body = offset_ * estimate;
   s.velocity_world = offset_.rotation().rotate(values_.at<gtsam::Vector3>(V(k)));
+  if (options_.position_from_velocity && published_k_) {
+    gtsam::Vector3 p =
+        published_.translation() + 0.5 * (t_radar - published_t_) * (published_velocity_ + s.velocity_world);
+    p.z() = s.world_T_body.translation().z();
+    s.world_T_body = gtsam::Pose3(s.world_T_body.rotation(), p);
+  }
   published_ = s.world_T_body;
+  published_t_ = t_radar;
+  published_velocity_ = s.velocity_world;
   published_k_ = k;
   s.bias = values_.at<gtsam::imuBias::ConstantBias>(B(k));
   s.radar_used = radar_used;

@@ -375,3 +375,53 @@ TEST_CASE("settled states: each state leaves the window at its own time, its til
   CHECK(moved == 0.0);
   CHECK(turned < 1e-5);  // second order in the tilt difference (< 0.1 deg here)
 }
+
+namespace {
+
+// The level rig of the test above (stand, straight, turn round, straight back) with the option
+// given: every state published.
+std::vector<FrontendState> drive_back(bool position_from_velocity) {
+  LevelRig rig(31, gtsam::Vector3(0.03, -0.05, 0.02), gtsam::Vector3(0.001, -0.002, 0.003), 0.01);
+  rig.options.position_from_velocity = position_from_velocity;
+  RioFrontend frontend(rig.options);
+  const double v0 = 0.8, w0 = 0.3, t_turn = 22, t_back = t_turn + std::numbers::pi / w0, end = t_back + 20;
+  std::vector<FrontendState> states;
+  for (int i = 0; i <= static_cast<int>(end * 200); ++i) {
+    const double t = i / 200.0;
+    const double ramp = std::clamp((t - 2.0) / 2.0, 0.0, 1.0);
+    const double a = 0.5 - 0.5 * std::cos(std::numbers::pi * ramp);
+    const double da = t > 2.0 && t < 4.0 ? 0.25 * std::numbers::pi * std::sin(std::numbers::pi * ramp) : 0.0;
+    const double v = v0 * a, w = (t >= t_turn && t < t_back) ? w0 : 0.0;
+    frontend.add_imu(rig.imu(t, v, v0 * da, w));
+    if (i % 20 == 10)
+      if (auto s = frontend.add_radar(t, rig.ego(v, w))) states.push_back(*s);
+  }
+  return states;
+}
+
+}  // namespace
+
+TEST_CASE("position_from_velocity: the published positions are the integral of the published velocities",
+          "[frontend]") {
+  const std::vector<FrontendState> window = drive_back(false), integrated = drive_back(true);
+  REQUIRE(integrated.size() > 500);
+  REQUIRE(window.size() == integrated.size());
+  double largest_difference = 0;
+  for (std::size_t k = 1; k < integrated.size(); ++k) {
+    const FrontendState &a = integrated[k - 1], &b = integrated[k], &w = window[k];
+    // The window runs the same either way: orientation, velocity and height are its estimates.
+    CHECK(b.world_T_body.rotation().equals(w.world_T_body.rotation(), 1e-12));
+    CHECK((b.velocity_world - w.velocity_world).norm() < 1e-12);
+    CHECK(b.world_T_body.translation().z() == w.world_T_body.translation().z());
+    // The horizontal position moves by the trapezoid of the two frames' velocities.
+    const gtsam::Vector3 step = b.world_T_body.translation() - a.world_T_body.translation();
+    const gtsam::Vector3 trapezoid = 0.5 * (b.t - a.t) * (a.velocity_world + b.velocity_world);
+    CHECK((step - trapezoid).head<2>().norm() < 1e-12);
+    const gtsam::Vector3 difference = b.world_T_body.translation() - w.world_T_body.translation();
+    largest_difference = std::max(largest_difference, difference.head<2>().norm());
+  }
+  // Both are estimates of the same walk (60 m): they part by centimetres, not more.
+  INFO("largest horizontal difference from the window's positions " << largest_difference << " m");
+  CHECK(largest_difference > 0);
+  CHECK(largest_difference < 0.1);
+}

@@ -176,6 +176,7 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.window_states == d.frontend.window_states);
   CHECK(o.frontend.still_neighbours == d.frontend.still_neighbours);
   CHECK(o.frontend.continuous_odometry == d.frontend.continuous_odometry);
+  CHECK(o.frontend.position_from_velocity == d.frontend.position_from_velocity);
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);
@@ -193,6 +194,20 @@ TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wr
   CHECK(load_file(path).points.drop_ambiguous_azimuth);
   const std::string bad = dir.write("bad_points.yaml", "%YAML:1.0\n---\nego_velocity:\n  drop_ambiguous_azimuth: maybe\n");
   check_error_names_key(bad, "drop_ambiguous_azimuth");
+}
+
+TEST_CASE("positions from the velocities load, print back, and a wrong value names its key", "[odometry]") {
+  const rsrio::testing::ScratchDir dir("odometry_test");
+  CHECK_FALSE(OdometryOptions{}.frontend.position_from_velocity);
+  OdometryOptions o;
+  o.frontend.position_from_velocity = true;
+  std::ostringstream printed;
+  print(printed, o);
+  const std::string path = dir.write("positions.yaml", "%YAML:1.0\n---\n" + printed.str());
+  CHECK(load_file(path).frontend.position_from_velocity);
+  const std::string bad =
+      dir.write("bad_positions.yaml", "%YAML:1.0\n---\nfrontend:\n  position_from_velocity: 2\n");
+  check_error_names_key(bad, "position_from_velocity");
 }
 
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {

@@ -60,6 +60,14 @@ struct FrontendOptions {
   // previous one); roll and pitch stay absolute (gravity observes them), and between updates the
   // window's estimate is published as it is. false: the window's estimate always.
   bool continuous_odometry = true;
+  // Published horizontal positions. false: the window's estimate of the newest state. true: the
+  // previous published position plus the trapezoid of the two frames' published velocities, so that
+  // they are the integral of the velocities the radar measures (along a corridor the window's
+  // positions wander from that integral by a few mm/s for seconds at a time, splat/RESULTS.md
+  // 2026-12-06; why is not found). Height stays the window's: the radar hardly sees the vertical
+  // velocity, and its integral drifts (tenths of a metre over a few minutes: the SE(3) alignment
+  // then tilts a run by a degree). Orientation and velocity are the window's either way.
+  bool position_from_velocity = false;
   // Window and priors.
   int window_states = 20;
   int lm_max_iterations = 15;
@@ -170,6 +178,8 @@ class RioFrontend {
   std::uint64_t offset_zero_rate_updates_ = 0;
   gtsam::Pose3 published_;
   std::optional<std::uint64_t> published_k_;
+  double published_t_ = 0;                                         // radar clock
+  gtsam::Vector3 published_velocity_ = gtsam::Vector3::Zero();     // position_from_velocity
 };
 
 }  // namespace rsrio::rio
