@@ -276,26 +276,40 @@ TEST_CASE("standing after a drive, the zero-rate updates move the published pose
   CHECK(deg_raw > 3 * deg_cont);
 }
 
-TEST_CASE("retilted: a later accelerometer bias takes the tilt out of the first straight", "[frontend]") {
-  // Level rig: stands 2 s, drives 20 s straight at 0.8 m/s, turns round (0.3 rad/s) and drives
-  // 20 s back. On the first straight a horizontal accelerometer bias and a tilt are one unknown to
-  // the window (the radar pins the horizontal velocity), so roll and pitch are off by about
-  // bias / g; the turn tells them apart, and the final bias corrects the earlier states.
-  LevelRig rig(23, gtsam::Vector3(0.03, -0.05, 0.02), gtsam::Vector3(0.001, -0.002, 0.003), 0.01);
-  const FrontendOptions& o = rig.options;
-  RioFrontend frontend(o);
-  const double v0 = 0.8, w0 = 0.3, t_turn = 22, t_back = t_turn + std::numbers::pi / w0, end = t_back + 20;
+namespace {
+
+// A level rig that stands 2 s, drives 20 s straight at 0.8 m/s, turns round (0.3 rad/s) and
+// drives 20 s back; every state the frontend (with the rig's options) publishes.
+constexpr double kTurnStart = 22;
+LevelRig turning_back_rig(unsigned seed) {
+  return LevelRig(seed, gtsam::Vector3(0.03, -0.05, 0.02), gtsam::Vector3(0.001, -0.002, 0.003), 0.01);
+}
+std::vector<FrontendState> drive_back(LevelRig& rig) {
+  RioFrontend frontend(rig.options);
+  const double v0 = 0.8, w0 = 0.3, t_back = kTurnStart + std::numbers::pi / w0, end = t_back + 20;
   std::vector<FrontendState> states;
   for (int i = 0; i <= static_cast<int>(end * 200); ++i) {
     const double t = i / 200.0;
     const double ramp = std::clamp((t - 2.0) / 2.0, 0.0, 1.0);  // speed up over 2 s
     const double a = 0.5 - 0.5 * std::cos(std::numbers::pi * ramp);
     const double da = t > 2.0 && t < 4.0 ? 0.25 * std::numbers::pi * std::sin(std::numbers::pi * ramp) : 0.0;
-    const double v = v0 * a, w = (t >= t_turn && t < t_back) ? w0 : 0.0;
+    const double v = v0 * a, w = (t >= kTurnStart && t < t_back) ? w0 : 0.0;
     frontend.add_imu(rig.imu(t, v, v0 * da, w));
     if (i % 20 == 10)
       if (auto s = frontend.add_radar(t, rig.ego(v, w))) states.push_back(*s);
   }
+  return states;
+}
+
+}  // namespace
+
+TEST_CASE("retilted: a later accelerometer bias takes the tilt out of the first straight", "[frontend]") {
+  // On the first straight a horizontal accelerometer bias and a tilt are one unknown to the
+  // window (the radar pins the horizontal velocity), so roll and pitch are off by about bias / g;
+  // the turn tells them apart, and the final bias corrects the earlier states.
+  LevelRig rig = turning_back_rig(23);
+  const FrontendOptions& o = rig.options;
+  const std::vector<FrontendState> states = drive_back(rig);
   REQUIRE(states.size() > 500);
   const gtsam::Vector3 final_bias = states.back().bias.accelerometer();
   // The truth is level: the tilt is the angle of the estimated body up from the vertical.
@@ -305,7 +319,7 @@ TEST_CASE("retilted: a later accelerometer bias takes the tilt out of the first 
   double raw2 = 0, fixed2 = 0, moved = 0;
   int count = 0;
   for (const auto& s : states) {
-    if (s.t < 4 || s.t > t_turn) continue;
+    if (s.t < 4 || s.t > kTurnStart) continue;
     const gtsam::Pose3 r = retilted(s.world_T_body, s.bias.accelerometer(), final_bias, o.gravity);
     raw2 += std::pow(tilt_deg(s.world_T_body), 2);
     fixed2 += std::pow(tilt_deg(r), 2);
@@ -376,34 +390,12 @@ TEST_CASE("settled states: each state leaves the window at its own time, its til
   CHECK(turned < 1e-5);  // second order in the tilt difference (< 0.1 deg here)
 }
 
-namespace {
-
-// The level rig of the test above (stand, straight, turn round, straight back) with the option
-// given: every state published.
-std::vector<FrontendState> drive_back(bool position_from_velocity) {
-  LevelRig rig(31, gtsam::Vector3(0.03, -0.05, 0.02), gtsam::Vector3(0.001, -0.002, 0.003), 0.01);
-  rig.options.position_from_velocity = position_from_velocity;
-  RioFrontend frontend(rig.options);
-  const double v0 = 0.8, w0 = 0.3, t_turn = 22, t_back = t_turn + std::numbers::pi / w0, end = t_back + 20;
-  std::vector<FrontendState> states;
-  for (int i = 0; i <= static_cast<int>(end * 200); ++i) {
-    const double t = i / 200.0;
-    const double ramp = std::clamp((t - 2.0) / 2.0, 0.0, 1.0);
-    const double a = 0.5 - 0.5 * std::cos(std::numbers::pi * ramp);
-    const double da = t > 2.0 && t < 4.0 ? 0.25 * std::numbers::pi * std::sin(std::numbers::pi * ramp) : 0.0;
-    const double v = v0 * a, w = (t >= t_turn && t < t_back) ? w0 : 0.0;
-    frontend.add_imu(rig.imu(t, v, v0 * da, w));
-    if (i % 20 == 10)
-      if (auto s = frontend.add_radar(t, rig.ego(v, w))) states.push_back(*s);
-  }
-  return states;
-}
-
-}  // namespace
-
 TEST_CASE("position_from_velocity: the published positions are the integral of the published velocities",
           "[frontend]") {
-  const std::vector<FrontendState> window = drive_back(false), integrated = drive_back(true);
+  // The retilt test's drive, the same noise either way.
+  LevelRig window_rig = turning_back_rig(31), integrated_rig = turning_back_rig(31);
+  integrated_rig.options.position_from_velocity = true;
+  const std::vector<FrontendState> window = drive_back(window_rig), integrated = drive_back(integrated_rig);
   REQUIRE(integrated.size() > 500);
   REQUIRE(window.size() == integrated.size());
   double largest_difference = 0;
