@@ -182,32 +182,32 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.radar_time_offset_s == 0.004);
 }
 
-TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wrong value names its key",
-          "[odometry]") {
+// A yes/no option off by default: set, printed and loaded back it is on, and a value that is
+// not a boolean (`bad`) in its `section` is refused naming `key`.
+void check_flag_option(const std::string& section, const std::string& key, const std::string& bad,
+                       bool& (*flag)(OdometryOptions&)) {
   const rsrio::testing::ScratchDir dir("odometry_test");
-  CHECK_FALSE(OdometryOptions{}.points.drop_ambiguous_azimuth);
+  OdometryOptions defaults;
+  CHECK_FALSE(flag(defaults));
   OdometryOptions o;
-  o.points.drop_ambiguous_azimuth = true;
+  flag(o) = true;
   std::ostringstream printed;
   print(printed, o);
-  const std::string path = dir.write("points.yaml", "%YAML:1.0\n---\n" + printed.str());
-  CHECK(load_file(path).points.drop_ambiguous_azimuth);
-  const std::string bad = dir.write("bad_points.yaml", "%YAML:1.0\n---\nego_velocity:\n  drop_ambiguous_azimuth: maybe\n");
-  check_error_names_key(bad, "drop_ambiguous_azimuth");
+  OdometryOptions loaded = load_file(dir.write(key + ".yaml", "%YAML:1.0\n---\n" + printed.str()));
+  CHECK(flag(loaded));
+  const std::string bad_file = "%YAML:1.0\n---\n" + section + ":\n  " + key + ": " + bad + "\n";
+  check_error_names_key(dir.write("bad_" + key + ".yaml", bad_file), key);
+}
+
+TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wrong value names its key",
+          "[odometry]") {
+  check_flag_option("ego_velocity", "drop_ambiguous_azimuth", "maybe",
+                    [](OdometryOptions& o) -> bool& { return o.points.drop_ambiguous_azimuth; });
 }
 
 TEST_CASE("positions from the velocities load, print back, and a wrong value names its key", "[odometry]") {
-  const rsrio::testing::ScratchDir dir("odometry_test");
-  CHECK_FALSE(OdometryOptions{}.frontend.position_from_velocity);
-  OdometryOptions o;
-  o.frontend.position_from_velocity = true;
-  std::ostringstream printed;
-  print(printed, o);
-  const std::string path = dir.write("positions.yaml", "%YAML:1.0\n---\n" + printed.str());
-  CHECK(load_file(path).frontend.position_from_velocity);
-  const std::string bad =
-      dir.write("bad_positions.yaml", "%YAML:1.0\n---\nfrontend:\n  position_from_velocity: 2\n");
-  check_error_names_key(bad, "position_from_velocity");
+  check_flag_option("frontend", "position_from_velocity", "2",
+                    [](OdometryOptions& o) -> bool& { return o.frontend.position_from_velocity; });
 }
 
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {
