@@ -84,6 +84,8 @@ for ((i = 0; i < 600; i++)); do
   k=$(last_value keyframes "$out/echo_term.log")
   [ "${k:-0}" -ge 2 ] && break
   kill -0 "$pid" 2>/dev/null || fail "rsriod ended before SIGTERM"
+  # Statuses come through the echo: if it died (a sanitizer's halt), say so, not that rsriod ran out.
+  kill -0 "$echo_pid" 2>/dev/null || fail "rsrio-echo ended before the second keyframe's status"
   sleep 0.1
 done
 [ "${k:-0}" -ge 2 ] || fail "no second keyframe within 60 s"
