@@ -708,6 +708,7 @@ int main(int argc, char** argv) {
          << ", \"keyframe_images_evicted\": " << st.keyframe_images_evicted
          << ", \"keyframe_points_evicted\": " << st.keyframe_points_evicted
          << ", \"keyframes_dropped\": " << st.keyframes_dropped
+         << ", \"occluded_columns\": " << st.occluded_columns << ", \"occluded_pixels\": " << st.occluded_pixels
          << ", \"loop_attempts\": " << st.loop_attempts << ", \"loop_closures\": " << st.loop_closures
          << ", \"loop_rejected_score\": " << st.loop_rejected_score
          << ", \"loop_rejected_ambiguous\": " << st.loop_rejected_ambiguous

@@ -95,6 +95,9 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("first_keyframe_mapping_iterations", o.first_keyframe_mapping_iterations, {0, 100000});
   node.read("pose_coverage_mask", o.pose_coverage_mask);
   node.read("coverage_margin_bins", o.coverage_margin_bins, {0, 1000});
+  node.read("occlusion_threshold", o.occlusion_threshold, {0.0, 100.0});
+  node.read("occlusion_row_db", o.occlusion_row_db, {0.0, 200.0});
+  node.read("occlusion_margin_m", o.occlusion_margin_m, {0.0, 1000.0});
   node.read("rd_loss", o.rd_loss);
   node.read("ra_weight", o.ra_weight, {0.0, 1e6});
   node.read("rd_weight", o.rd_weight, {0.0, 1e6});
@@ -203,6 +206,9 @@ void print(std::ostream& out, const BackendOptions& o) {
   out << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
       << "  pose_coverage_mask: " << (o.pose_coverage_mask ? "true" : "false") << "\n"
       << "  coverage_margin_bins: " << o.coverage_margin_bins << "\n"
+      << "  occlusion_threshold: " << o.occlusion_threshold << "\n"
+      << "  occlusion_row_db: " << o.occlusion_row_db << "\n"
+      << "  occlusion_margin_m: " << o.occlusion_margin_m << "\n"
       << "  rd_loss: " << (o.rd_loss ? "true" : "false") << "\n"
       << "  ra_weight: " << o.ra_weight << "\n"
       << "  rd_weight: " << o.rd_weight << "\n"
@@ -346,12 +352,23 @@ typename KeyframeObjective<Scalar>::Result KeyframeObjective<Scalar>::evaluate(
     const GaussianScene& scene, std::span<const std::uint32_t> gaussians, const Eigen::Isometry3d& radar_T_world,
     const Eigen::Vector3d* velocity, const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight,
     double rd_weight, SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity,
-    const PixelDirections<Scalar>* directions) {
+    const PixelDirections<Scalar>* directions, std::span<const int> visible_rows) {
   Result r;
   const bool backward = scene_gradients != nullptr || grad_pose != nullptr;
   ra_renderer_.render(scene, radar_T_world, gaussians, ra_);
-  r.ra_loss = ra_loss_.evaluate(ra_, ra_target, backward ? &grad_ra_ : nullptr);
-  if (backward) grad_ra_ *= static_cast<Scalar>(ra_weight);
+  // The RA loss on the pixels before the occluders only; the RD from the whole RA, as the
+  // measured RD holds every return the radar received, whatever its azimuth.
+  const Image<Scalar>* ra_compared = &ra_;
+  if (!visible_rows.empty()) {
+    ra_visible_ = ra_;
+    zero_occluded(ra_visible_, visible_rows);
+    ra_compared = &ra_visible_;
+  }
+  r.ra_loss = ra_loss_.evaluate(*ra_compared, ra_target, backward ? &grad_ra_ : nullptr);
+  if (backward) {
+    zero_occluded(grad_ra_, visible_rows);  // d(masked RA)/d(RA) is the mask
+    grad_ra_ *= static_cast<Scalar>(ra_weight);
+  }
   const bool use_rd = velocity != nullptr && rd_weight > 0;
   if (use_rd) {
     rd_renderer_.render(ra_, *velocity, rd_, directions);
@@ -576,6 +593,16 @@ bool Backend::add_frame(const BackendFrame& frame) {
   }
   objective_->ra_loss().prepare_measurement(kf.ra, kf.ra_target);
   objective_->rd_loss().prepare_measurement(kf.rd, kf.rd_target);
+  if (options_.occlusion_threshold > 0) {
+    kf.visible_rows = occlusion_rows(kf.ra, kf.ra_target, options_.occlusion_threshold, options_.occlusion_row_db,
+                                     options_.skip_near_range_bins,
+                                     static_cast<int>(std::ceil(options_.occlusion_margin_m / grid_.range_bin_m)));
+    zero_occluded(kf.ra_target, kf.visible_rows);
+    for (const int n : kf.visible_rows) {
+      stats_.occluded_columns += n < grid_.range_bins ? 1 : 0;
+      stats_.occluded_pixels += static_cast<std::uint64_t>(grid_.range_bins - n);
+    }
+  }
   keyframes_.push_back(std::move(kf));
   ++stats_.keyframes;
   const std::size_t k = keyframes_.size() - 1;
@@ -848,7 +875,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
                                           kf.ra_target, kf.rd_target, options_.ra_weight,
                                           use_rd ? options_.rd_weight : 0.0, optimise_scene ? &gradients_ : nullptr,
                                           pose_row[k] >= 0 ? &g_pose : nullptr, use_rd ? &g_v : nullptr,
-                                          directions ? &directions_[i] : nullptr);
+                                          directions ? &directions_[i] : nullptr, kf.visible_rows);
       loss += options_.ra_weight * r.ra_loss + (use_rd ? options_.rd_weight * r.rd_loss : 0.0);
       if (pose_row[k] >= 0) grad_left[static_cast<std::size_t>(pose_row[k])] += g_pose + vj.d_current.transpose() * g_v;
       if (use_rd && k > 0 && pose_row[k - 1] >= 0)
@@ -1013,6 +1040,7 @@ void Backend::evict_keyframe_data() {
       options_.max_keyframe_images, windows, [](const Keyframe& kf) { return kf.has_images(); },
       [&](Keyframe& kf) {
         for (Image<float>* image : {&kf.ra, &kf.rd, &kf.ra_target, &kf.rd_target}) image->resize(0, 0);
+        kf.visible_rows.clear();
         ++stats_.keyframe_images_evicted;
       });
   evict(
@@ -1097,6 +1125,36 @@ void mask_uncovered(const Image<float>& ra_rendered_c, const Image<float>& rd_re
     if (!covered.row(r).any()) rd_target.row(r) = rd_rendered_c.row(r);
   }
 }
+
+std::vector<int> occlusion_rows(const Image<float>& ra_linear, const Image<float>& ra_compressed, double threshold,
+                                double row_db, int first_row, int margin_rows) {
+  if (ra_linear.rows() != ra_compressed.rows() || ra_linear.cols() != ra_compressed.cols())
+    throw std::invalid_argument("occlusion_rows: image sizes differ");
+  const auto rows = static_cast<int>(ra_linear.rows()), cols = static_cast<int>(ra_linear.cols());
+  std::vector<int> visible(static_cast<std::size_t>(cols), rows);
+  const float ratio = static_cast<float>(std::pow(10.0, -row_db / 10.0));
+  std::vector<bool> found(static_cast<std::size_t>(cols), false);
+  for (int r = std::max(0, first_row); r < rows; ++r) {
+    const float strongest = ra_linear.row(r).maxCoeff();
+    for (int a = 0; a < cols; ++a) {
+      const auto c = static_cast<std::size_t>(a);
+      if (found[c] || !(ra_compressed(r, a) >= threshold) || !(ra_linear(r, a) >= ratio * strongest)) continue;
+      found[c] = true;
+      visible[c] = std::min(rows, r + 1 + std::max(0, margin_rows));
+    }
+  }
+  return visible;
+}
+
+template <typename Scalar>
+void zero_occluded(Image<Scalar>& image, std::span<const int> visible_rows) {
+  const auto cols = std::min<Eigen::Index>(image.cols(), static_cast<Eigen::Index>(visible_rows.size()));
+  for (Eigen::Index a = 0; a < cols; ++a)
+    for (Eigen::Index r = std::max(0, visible_rows[static_cast<std::size_t>(a)]); r < image.rows(); ++r)
+      image(r, a) = 0;
+}
+template void zero_occluded(Image<float>&, std::span<const int>);
+template void zero_occluded(Image<double>&, std::span<const int>);
 
 void Backend::mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable) {
   const KeyframeRender render = render_keyframe(k, drawable);
@@ -1290,6 +1348,9 @@ KeyframeRender Backend::render_keyframe(std::size_t k, const std::vector<char>* 
     objective_->ra_renderer().render_directions(scene_, kf.world_T_radar.inverse(), list, directions);
   objective_->rd_renderer().render(out.ra_rendered, out.velocity, out.rd_rendered,
                                    options_.rd_gaussian_directions ? &directions : nullptr);
+  // What the RA loss compares: neither image beyond an occluder (occlusion_rows).
+  zero_occluded(out.ra_measured, kf.visible_rows);
+  zero_occluded(out.ra_rendered, kf.visible_rows);
   return out;
 }
 

@@ -157,6 +157,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  rd_elevation_sigma_sin: 0.156\n"
       "  rd_image_gradient: false\n"
       "  azimuth_gain_sigma_deg: 36\n"
+      "  occlusion_threshold: 0.5\n"
+      "  occlusion_margin_m: 0.3\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n"
       "  final_ba: {max_iterations: 80}\n");
   CHECK(o.mapping_keyframes == 7);
@@ -171,6 +173,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.rd_elevation_sigma_sin == 0.156);
   CHECK_FALSE(o.rd_image_gradient);
   CHECK(o.azimuth_gain_sigma_deg == 36);
+  CHECK(o.occlusion_threshold == 0.5);
+  CHECK(o.occlusion_margin_m == 0.3);
+  CHECK(o.occlusion_row_db == BackendOptions{}.occlusion_row_db);
   CHECK(o.elevation_gain_sigma_sin == BackendOptions{}.elevation_gain_sigma_sin);
   CHECK(o.lr_pose_translation == BackendOptions{}.lr_pose_translation);
   CHECK(o.loop.search_m == 1.5);
@@ -222,6 +227,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {max_keyframes: 5000}\n", "max_keyframes");  // not above max_keyframe_points
   CHECK(load("backend: {max_keyframes: 7000}\n").max_keyframes == 7000);
   fails_on("backend: {coverage_margin_bins: -1}\n", "coverage_margin_bins");
+  fails_on("backend: {occlusion_threshold: -0.5}\n", "occlusion_threshold");
+  fails_on("backend: {occlusion_margin_m: [1]}\n", "occlusion_margin_m");
   fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
   fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
@@ -294,6 +301,36 @@ TEST_CASE("radius_window: everything near on the first pass, the earlier pass's 
   CHECK(radius_window({}, 10.0, 10).empty());
 }
 
+namespace {
+
+// The objective of the gradient tests: SSIM 7 x 7 (the small grid), the first two range rows
+// skipped, an RD gain of the renderer's order.
+ImageLossOptions gradient_test_loss() {
+  ImageLossOptions lo;
+  lo.ssim.window = 7;
+  lo.skip_near_range_bins = 2;
+  return lo;
+}
+RdRenderOptions gradient_test_rd() {
+  RdRenderOptions rdo;
+  rdo.gain = 0.3;
+  return rdo;
+}
+
+// The compressed targets: the RA and RD that `objective` renders from `scene` at radar_T_world
+// with the radar velocity v.
+void render_targets(KeyframeObjective<double>& objective, const GaussianScene& scene,
+                    const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d& v, Image<double>& ra_target,
+                    Image<double>& rd_target) {
+  Image<double> ra, rd;
+  objective.ra_renderer().render(scene, radar_T_world, ra);
+  objective.rd_renderer().render(ra, v, rd);
+  objective.ra_loss().prepare_measurement(ra, ra_target);
+  objective.rd_loss().prepare_measurement(rd, rd_target);
+}
+
+}  // namespace
+
 TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair match central differences",
           "[splat][backend][gradient]") {
   // Without and with the RD pixels' directions from the Gaussians (held constant, as a stage
@@ -315,20 +352,14 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   const GaussianScene scene = random_scene(rng, cur_true.radar_T_world(), 40, 2.0, 8.0, 50, 10, 0.1, 0.4);
   const Eigen::Vector3d correction(0.05, -0.02, 0.0);
 
-  ImageLossOptions lo;
-  lo.ssim.window = 7;
-  lo.skip_near_range_bins = 2;
-  RdRenderOptions rdo;
-  rdo.gain = 0.3;
+  const ImageLossOptions lo = gradient_test_loss();
+  const RdRenderOptions rdo = gradient_test_rd();
   KeyframeObjective<double> objective(grid, {}, rdo, lo, lo);
   // Targets from the true poses; evaluated at perturbed ones.
-  Image<double> ra_true, rd_true, ra_target, rd_target;
-  objective.ra_renderer().render(scene, cur_true.radar_T_world(), ra_true);
-  const Eigen::Vector3d v_true =
-      keyframe_velocity(cur_true.radar_T_world(), prev_true.radar_T_world(), dt, correction).velocity;
-  objective.rd_renderer().render(ra_true, v_true, rd_true);
-  objective.ra_loss().prepare_measurement(ra_true, ra_target);
-  objective.rd_loss().prepare_measurement(rd_true, rd_target);
+  Image<double> ra_target, rd_target;
+  render_targets(objective, scene, cur_true.radar_T_world(),
+                 keyframe_velocity(cur_true.radar_T_world(), prev_true.radar_T_world(), dt, correction).velocity,
+                 ra_target, rd_target);
 
   PlanarPose cur = cur_true, prev = prev_true;
   cur.x += 0.07;
@@ -443,6 +474,144 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   CHECK(std::none_of(sg_rd_only.means.begin(), sg_rd_only.means.end(), nonzero));
   CHECK(g_v_rd.norm() > 0);
   CHECK((g_v_rd_only - g_v_rd).norm() <= 1e-12 * g_v_rd.norm());
+}
+
+TEST_CASE("occlusion_rows: a strong return hides its column beyond it; a sidelobe, a weak return, the leakage do not",
+          "[splat][backend][occlusion]") {
+  // Linear power on a 40 x 16 grid with a noise floor, compressed as the backend does (reference 1).
+  Image<float> ra = Image<float>::Constant(40, 16, 1e-5f);
+  ra(10, 5) = 10.0f;                 // a strong wall ahead in column 5
+  ra(10, 4) = ra(10, 6) = 0.5f;      // its azimuth sidelobes, 13 dB down but above the threshold
+  ra(30, 5) = 0.8f;                  // something behind it
+  ra(20, 9) = 0.5f;                  // a wall in column 9, alone in its row
+  ra(25, 12) = 0.01f;                // too weak to hide anything
+  ra(1, 3) = 5.0f;                   // TX-RX leakage in the skipped rows
+  ImageLoss<float> loss;
+  Image<float> compressed;
+  loss.prepare_measurement(ra, compressed);
+  const std::vector<int> visible = occlusion_rows(ra, compressed, 0.8, 10.0, /*first_row=*/2, /*margin_rows=*/3);
+  REQUIRE(visible.size() == 16);
+  CHECK(visible[5] == 10 + 1 + 3);
+  CHECK(visible[9] == 20 + 1 + 3);
+  for (int a : {0, 3, 4, 6, 12, 15}) CHECK(visible[static_cast<std::size_t>(a)] == 40);
+  // Without the row test the sidelobes hide their columns as well.
+  const std::vector<int> no_row_test = occlusion_rows(ra, compressed, 0.8, 200.0, 2, 3);
+  CHECK(no_row_test[4] == 14);
+  CHECK(no_row_test[6] == 14);
+  // The margin is cut at the image's end; a threshold nothing reaches hides nothing.
+  CHECK(occlusion_rows(ra, compressed, 0.8, 10.0, 2, 100)[5] == 40);
+  const std::vector<int> none = occlusion_rows(ra, compressed, 50.0, 10.0, 2, 3);
+  CHECK(std::all_of(none.begin(), none.end(), [](int n) { return n == 40; }));
+  CHECK_THROWS_AS(occlusion_rows(ra, Image<float>(40, 15), 0.8, 10.0, 2, 3), std::invalid_argument);
+
+  Image<double> image = Image<double>::Ones(6, 3);
+  zero_occluded(image, std::vector<int>{6, 2, 0});
+  CHECK(image.col(0).sum() == 6);
+  CHECK(image.col(1).sum() == 2);
+  CHECK(image.col(2).sum() == 0);
+  zero_occluded(image, std::vector<int>{});  // empty: nothing changes
+  CHECK(image.sum() == 8);
+}
+
+TEST_CASE("Keyframe objective with an occlusion mask: what lies beyond moves nothing through the RA loss; gradients match central differences",
+          "[splat][backend][occlusion][gradient]") {
+  std::mt19937_64 rng(5);
+  const RadarImageGrid grid = small_grid();
+  PlanarPose truth;
+  truth.x = 0.1;
+  truth.y = -0.2;
+  truth.yaw = 4 * kDeg;
+  // Gaussians at 2-5 m (in front of the mask's edge at 6 m) and one at 8 m, behind it.
+  GaussianScene scene = random_scene(rng, truth.radar_T_world(), 30, 2.0, 5.0, 50, 10, 0.05, 0.3);
+  const std::size_t visible_count = scene.size();
+  const Eigen::Isometry3d world_T_radar = truth.radar_T_world().inverse();
+  REQUIRE(scene.add(world_T_radar * Eigen::Vector3d(8.0, 0.5, 0.0), Eigen::Quaterniond::Identity(),
+                    Eigen::Vector3d::Constant(std::log(0.1)), std::log(2.0)));
+  // Every column keeps the rows below 6 m, the middle columns fewer (3.5-6 m): the mask cuts
+  // through the near Gaussians too.
+  std::vector<int> rows(static_cast<std::size_t>(grid.azimuth_bins), static_cast<int>(6.0 / grid.range_bin_m));
+  for (int a = 28; a < 36; ++a) rows[static_cast<std::size_t>(a)] = static_cast<int>(3.5 / grid.range_bin_m) + (a % 3);
+
+  KeyframeObjective<double> objective(grid, {}, gradient_test_rd(), gradient_test_loss(), gradient_test_loss());
+  const Eigen::Vector3d v(0.5, 0.05, 0.0);
+  Image<double> ra_target, rd_target;
+  render_targets(objective, scene, truth.radar_T_world(), v, ra_target, rd_target);
+  zero_occluded(ra_target, rows);
+
+  PlanarPose pose = truth;
+  pose.x += 0.05;
+  pose.yaw -= 1 * kDeg;
+  std::vector<std::uint32_t> all(scene.size());
+  std::iota(all.begin(), all.end(), 0u);
+  const std::vector<std::uint32_t> near_only(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(visible_count));
+  auto loss_of = [&](const Eigen::Isometry3d& radar_T_world, std::span<const std::uint32_t> list, double rd_weight,
+                     SceneGradients* sg, Vector6d* g_pose, Eigen::Vector3d* g_v, std::span<const int> mask) {
+    const auto r = objective.evaluate(scene, list, radar_T_world, &v, ra_target, rd_target, 1.0, rd_weight, sg, g_pose,
+                                      g_v, nullptr, mask);
+    return r.ra_loss + rd_weight * r.rd_loss;
+  };
+  const Eigen::Isometry3d radar_T_world = pose.radar_T_world();
+  const std::size_t far = visible_count;
+  {
+    // The RA loss alone: the Gaussian behind the mask changes neither the loss nor the pose's
+    // gradient, and receives none ...
+    SceneGradients sg, sg_near;
+    sg.reset(scene.size());
+    sg_near.reset(scene.size());
+    Vector6d g_pose = Vector6d::Zero(), g_pose_near = Vector6d::Zero();
+    CHECK(loss_of(radar_T_world, all, 0.0, &sg, &g_pose, nullptr, rows) ==
+          loss_of(radar_T_world, near_only, 0.0, &sg_near, &g_pose_near, nullptr, rows));
+    CHECK((g_pose - g_pose_near).norm() == 0);
+    CHECK(sg.means[3 * far] == 0);
+    CHECK(sg.means[3 * far + 1] == 0);
+    CHECK(sg.log_returns[far] == 0);
+    // ... which it would without the mask.
+    SceneGradients unmasked;
+    unmasked.reset(scene.size());
+    loss_of(radar_T_world, all, 0.0, &unmasked, nullptr, nullptr, {});
+    CHECK(unmasked.log_returns[far] != 0);
+  }
+  // With the RD term it is in the RD, rendered from the whole RA.
+  SceneGradients sg;
+  sg.reset(scene.size());
+  Vector6d g_pose = Vector6d::Zero();
+  Eigen::Vector3d g_v = Eigen::Vector3d::Zero();
+  loss_of(radar_T_world, all, 0.7, &sg, &g_pose, &g_v, rows);
+  CHECK(sg.log_returns[far] != 0);
+  auto total = [&](const Eigen::Isometry3d& T) { return loss_of(T, all, 0.7, nullptr, nullptr, nullptr, rows); };
+  // Pose (se(3) left increment) and velocity against central differences, through the mask's edge.
+  std::vector<double> analytic, numeric;
+  const double h = 1e-6;
+  for (int c = 0; c < 6; ++c) {
+    Vector6d d = Vector6d::Zero();
+    d[c] = h;
+    numeric.push_back((total(se3_exp(d) * radar_T_world) - total(se3_exp(-d) * radar_T_world)) / (2 * h));
+    analytic.push_back(g_pose[c]);
+  }
+  const double e_pose = relative_error(analytic, numeric);
+  // Some near Gaussians' returns and means (those the middle columns cut among them) and the far one's.
+  auto scene_difference = [&](std::span<double> values, std::size_t index) {
+    const double x0 = values[index];
+    values[index] = x0 + h;
+    const double up = total(radar_T_world);
+    values[index] = x0 - h;
+    const double down = total(radar_T_world);
+    values[index] = x0;
+    return (up - down) / (2 * h);
+  };
+  std::vector<double> an_scene, nu_scene;
+  for (const std::size_t i : {std::size_t{0}, std::size_t{7}, std::size_t{14}, std::size_t{21}, std::size_t{28}, far}) {
+    nu_scene.push_back(scene_difference(scene.mutable_log_returns(), i));
+    an_scene.push_back(sg.log_returns[i]);
+    for (std::size_t k = 0; k < 3; ++k) {
+      nu_scene.push_back(scene_difference(scene.mutable_means(), 3 * i + k));
+      an_scene.push_back(sg.means[3 * i + k]);
+    }
+  }
+  const double e_scene = relative_error(an_scene, nu_scene);
+  std::printf("masked objective gradient: pose rel. error %.2e, Gaussians %.2e\n", e_pose, e_scene);
+  CHECK(e_pose < 1e-3);
+  CHECK(e_scene < 1e-3);
 }
 
 TEST_CASE("Backend: published poses are the refined keyframe pose composed with the frontend's motion",
@@ -985,6 +1154,66 @@ TEST_CASE("Backend: new Gaussians start at the measured power also with range fa
   CHECK(far > 3.0);
 }
 
+namespace {
+
+// The rig's world seen from the origin at (0.5, 0.1) m/s as the backend's first keyframe (its
+// predecessor frame, 0.1 s before, gives the velocity).
+void add_first_keyframe(Backend& backend, const SyntheticRig& rig) {
+  const SyntheticFrame f = synthesise(rig.world, rig.grid, Eigen::Isometry3d::Identity(), Eigen::Vector3d(0.5, 0.1, 0));
+  const rsrio::DspResult r = f.view();
+  REQUIRE_FALSE(backend.add_frame({-0.1, gtsam::Pose3(gtsam::Rot3(), gtsam::Point3(-0.05, -0.01, 0)), &r}));
+  REQUIRE(backend.add_frame({0.0, gtsam::Pose3(), &r}));
+}
+
+}  // namespace
+
+TEST_CASE("Backend: with occlusion_threshold a keyframe's images take no part beyond its occluders",
+          "[splat][backend][occlusion]") {
+  const SyntheticRig rig(8);
+  const auto& [config, grids, grid, world] = rig;
+  BackendOptions o;
+  o.max_image_range_m = 12;
+  o.first_keyframe_mapping_iterations = 20;
+  o.occlusion_threshold = 0.5;
+  Backend backend(config, grids, o);
+  add_first_keyframe(backend, rig);
+  const Keyframe& kf = backend.keyframes().front();
+  const int rows = backend.grid().range_bins;
+  REQUIRE(kf.visible_rows.size() == static_cast<std::size_t>(grid.azimuth_bins));
+  // What occlusion_rows says of the keyframe's image compressed as the backend does (the first
+  // keyframe's percentile the reference), counted.
+  ImageLossOptions lo;
+  lo.compression.reference =
+      percentile_reference({kf.ra.data(), static_cast<std::size_t>(kf.ra.size())}, o.reference_percentile);
+  lo.compression.floor = o.compression_floor;
+  Image<float> compressed;
+  ImageLoss<float>(lo).prepare_measurement(kf.ra, compressed);
+  CHECK(kf.visible_rows == occlusion_rows(kf.ra, compressed, o.occlusion_threshold, o.occlusion_row_db,
+                                          o.skip_near_range_bins,
+                                          static_cast<int>(std::ceil(o.occlusion_margin_m / grid.range_bin_m))));
+  std::uint64_t columns = 0, pixels = 0;
+  double hidden_power = 0;
+  for (int a = 0; a < grid.azimuth_bins; ++a) {
+    const int n = kf.visible_rows[static_cast<std::size_t>(a)];
+    columns += n < rows ? 1 : 0;
+    pixels += static_cast<std::uint64_t>(rows - n);
+    for (int row = n; row < rows; ++row) hidden_power += kf.ra(row, a);
+  }
+  REQUIRE(columns > 0);
+  CHECK(backend.stats().occluded_columns == columns);
+  CHECK(backend.stats().occluded_pixels == pixels);
+  CHECK(hidden_power > 0);  // the measurement had something there
+  // Neither the target nor the pictures (what the losses compare) hold anything beyond.
+  const KeyframeRender k = backend.render_keyframe(0);
+  for (int a = 0; a < grid.azimuth_bins; ++a) {
+    const auto n = static_cast<Eigen::Index>(kf.visible_rows[static_cast<std::size_t>(a)]);
+    if (n == rows) continue;
+    CHECK(kf.ra_target.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
+    CHECK(k.ra_measured.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
+    CHECK(k.ra_rendered.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
+  }
+}
+
 TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[splat][backend]") {
   const SyntheticRig rig(8);
   const auto& [config, grids, grid, world] = rig;
@@ -992,11 +1221,7 @@ TEST_CASE("Backend: measured vs rendered keyframe images, and their PNGs", "[spl
   o.max_image_range_m = 12;
   o.first_keyframe_mapping_iterations = 60;
   Backend backend(config, grids, o);
-  const SyntheticFrame f = synthesise(world, grid, Eigen::Isometry3d::Identity(), Eigen::Vector3d(0.5, 0.1, 0));
-  const rsrio::DspResult r = f.view();
-  // The predecessor frame gives the velocity (0.5, 0.1) m/s.
-  REQUIRE_FALSE(backend.add_frame({-0.1, gtsam::Pose3(gtsam::Rot3(), gtsam::Point3(-0.05, -0.01, 0)), &r}));
-  REQUIRE(backend.add_frame({0.0, gtsam::Pose3(), &r}));
+  add_first_keyframe(backend, rig);
   const KeyframeRender k = backend.render_keyframe(0);
   REQUIRE(k.ra_rendered.rows() == backend.grid().range_bins);
   REQUIRE(k.ra_rendered.cols() == grid.azimuth_bins);

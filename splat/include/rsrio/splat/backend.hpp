@@ -128,6 +128,21 @@ struct BackendOptions {
   // (ahead, round a corner) would otherwise pull the pose towards them.
   bool pose_coverage_mask = true;
   int coverage_margin_bins = 3;
+  // What a keyframe's RA cannot show. A wall hides what lies behind it, but the renderer draws
+  // every Gaussian in range (RadarSplat's, no occlusion): from a corridor it draws the corridors
+  // beyond its walls that the map holds from other views, and the losses pull poses and
+  // Gaussians to explain returns that no radar there could measure. occlusion_threshold > 0: in
+  // each azimuth column of a keyframe's measured RA the nearest pixel whose compressed power is
+  // at least this (1: the reference, reference_percentile) and within occlusion_row_db of its
+  // range row's strongest (so not an azimuth sidelobe of a return elsewhere at that range) is
+  // taken for an occluder, and the pixels more than occlusion_margin_m beyond it take no part in
+  // that keyframe's RA loss: measured and rendered RA set to 0 there (occlusion_rows). The RD
+  // is rendered from the whole RA: the measured RD holds every return received, and rendered
+  // from the masked RA the default configuration's end of run was worse on sequences 1-3
+  // (splat/RESULTS.md, 2026-12-06). 0: off.
+  double occlusion_threshold = 0;
+  double occlusion_row_db = 10;
+  double occlusion_margin_m = 0.5;
   // ---- loss
   bool rd_loss = true;                // RD term in pose refinement and BA (the ablation: false)
   double ra_weight = 1.0;
@@ -333,6 +348,8 @@ struct BackendStats {
   std::uint64_t keyframe_images_evicted = 0;  // keyframes whose images were dropped (max_keyframe_images)
   std::uint64_t keyframe_points_evicted = 0;  // keyframes whose static points were dropped (max_keyframe_points)
   std::uint64_t keyframes_dropped = 0;        // keyframes dropped altogether (max_keyframes)
+  // occlusion_threshold: keyframe RA columns with an occluder, and the pixels beyond it left out.
+  std::uint64_t occluded_columns = 0, occluded_pixels = 0;
   // Revisit alignment: matches tried, loops closed, and matches refused (each reason counted).
   std::uint64_t loop_attempts = 0, loop_closures = 0;
   std::uint64_t loop_rejected_score = 0, loop_rejected_ambiguous = 0, loop_below_threshold = 0;
@@ -354,6 +371,9 @@ struct Keyframe {
   Image<float> ra, rd;                          // measured, linear
   Image<float> ra_target, rd_target;            // compressed (ImageLoss::prepare_measurement)
   std::vector<Eigen::Vector3f> points;          // static CFAR points, radar frame (revisit alignment)
+  // Per azimuth column, the range rows [0, n) that take part in the losses (occlusion_rows);
+  // empty: all. Goes with the images.
+  std::vector<int> visible_rows;
   // The heading that loop closures added to the frontend's at this keyframe: the yaw prior's
   // reference is the frontend's heading plus it (a loop correction is not undone by the prior).
   double loop_yaw = 0;
@@ -367,7 +387,9 @@ struct Keyframe {
 
 /// The images of one keyframe rendered from the current map (for pictures and checks).
 struct KeyframeRender {
-  Image<float> ra_measured, ra_rendered, rd_measured, rd_rendered;  // linear
+  // Linear. The RA pair as the RA loss compares them: 0 beyond the keyframe's occluders
+  // (BackendOptions::occlusion_threshold); the RD rendered from the whole RA.
+  Image<float> ra_measured, ra_rendered, rd_measured, rd_rendered;
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
 };
 
@@ -388,12 +410,15 @@ class KeyframeObjective {
   /// Gaussians seen from radar_T_world against the compressed targets. ADDS gradients into
   /// scene_gradients (may be null), grad_pose (left increment of radar_T_world, may be null) and
   /// grad_velocity (may be null). `directions`: the pixels' directions for the RD rendering
-  /// (RaRenderer::render_directions, held constant; null: elevation 0).
+  /// (RaRenderer::render_directions, held constant; null: elevation 0). `visible_rows` (per
+  /// azimuth column, occlusion_rows; empty: all): the RA loss compares the rendered RA set to 0
+  /// from that row on (ra_target must be 0 there too: zero_occluded), so what lies beyond moves
+  /// nothing through it; the RD is rendered from the whole RA.
   Result evaluate(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
                   const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d* velocity,
                   const Image<Scalar>& ra_target, const Image<Scalar>& rd_target, double ra_weight, double rd_weight,
                   SceneGradients* scene_gradients, Vector6d* grad_pose, Eigen::Vector3d* grad_velocity,
-                  const PixelDirections<Scalar>* directions = nullptr);
+                  const PixelDirections<Scalar>* directions = nullptr, std::span<const int> visible_rows = {});
 
   const RaRenderer<Scalar>& ra_renderer() const { return ra_renderer_; }
   RdRenderer<Scalar>& rd_renderer() { return rd_renderer_; }
@@ -405,7 +430,7 @@ class KeyframeObjective {
   RdRenderer<Scalar> rd_renderer_;
   ImageLoss<Scalar> ra_loss_, rd_loss_;
   bool rd_image_gradient_;
-  Image<Scalar> ra_, rd_, grad_ra_, grad_rd_;
+  Image<Scalar> ra_, ra_visible_, rd_, grad_ra_, grad_rd_;
 };
 
 extern template class KeyframeObjective<float>;
@@ -423,6 +448,20 @@ RadarVelocity keyframe_velocity(const Eigen::Isometry3d& radar_T_world_current,
 /// the rendered RD row. Throws std::invalid_argument for images of different sizes.
 void mask_uncovered(const Image<float>& ra_rendered_compressed, const Image<float>& rd_rendered_compressed, double knee,
                     int margin, Image<float>& ra_target, Image<float>& rd_target);
+
+/// The occlusion mask of a measured RA (BackendOptions::occlusion_threshold): for each azimuth
+/// column, the number of range rows that take part, from row 0. The first row from `first_row` on
+/// whose compressed power is >= threshold and whose linear power is within row_db of the
+/// strongest of its range row (from first_row on) is the occluder; the rows up to margin_rows
+/// beyond it stay. A column without one keeps every row. Throws std::invalid_argument for
+/// images of different sizes.
+std::vector<int> occlusion_rows(const Image<float>& ra_linear, const Image<float>& ra_compressed, double threshold,
+                                double row_db, int first_row, int margin_rows);
+
+/// Sets the pixels of each column from row visible_rows[column] on to 0 (all rows if
+/// visible_rows is empty: nothing changes).
+template <typename Scalar>
+void zero_occluded(Image<Scalar>& image, std::span<const int> visible_rows);
 
 /// The BA window of the paper's radius option for the newest (last) of `positions`, the keyframes'
 /// radar positions in time order: the indices of those within radius_m of it, at most `cap` of
