@@ -1157,6 +1157,9 @@ template void zero_occluded(Image<float>&, std::span<const int>);
 template void zero_occluded(Image<double>&, std::span<const int>);
 
 void Backend::mask_uncovered_targets(std::size_t k, const std::vector<char>* drawable) {
+  // With occlusion_threshold the rendered RA is 0 beyond the occluders, so a range row occluded in
+  // every column counts as uncovered and its RD target becomes the rendered RD: pose refinement's
+  // RD loss then leaves such a row out, as its RA loss does.
   const KeyframeRender render = render_keyframe(k, drawable);
   Image<float> ra_c, rd_c;
   objective_->ra_loss().prepare_measurement(render.ra_rendered, ra_c);
