@@ -6,6 +6,7 @@
 //     The RD renderer with the backend's kernel (the DSP's Doppler lobe, 0.61 bins), at
 //     elevation 0 (RD), with the Gaussians' pixel directions (RD+d; RaRenderer::render_directions,
 //     "dirs", also timed) and marginalised over the elevation beam (RD+b: three elevations).
+//     The RA render with view-dependent returns (RA+v: RaRenderOptions::view_dependent_return).
 //  2. the backend per keyframe (splat::Backend with its default options: pose refinement,
 //     mapping, BA) on a synthetic walk through a room of Gaussians whose images are rendered
 //     (so the optimisation has the work of a real stretch without the simulator): mean and
@@ -136,19 +137,27 @@ void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scen
   const double t_rd_beam_fwd = median_ms(reps, [&] { beam_renderer.render(ra, velocity, rd); });
   const double t_rd_beam_bwd =
       median_ms(reps, [&] { beam_renderer.backward(ra, velocity, grad_rd, &grad_ra, &grad_v); });
+  RaRenderOptions view_options;
+  view_options.view_dependent_return = true;
+  const RaRenderer<Scalar> view_renderer(grid, view_options);
+  const double t_view_fwd = median_ms(reps, [&] { view_renderer.render(scene, pose, ra); });
+  const double t_view_bwd = median_ms(reps, [&] {
+    grads.set_zero();
+    view_renderer.backward(scene, pose, grad_ra, &grads, &grad_pose);
+  });
   const double total = t_fwd + t_bwd + t_loss + t_rd_fwd + t_rd_bwd + t_rd_loss;
   std::printf("| %6zu | %-6s | %8.0f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %8.3f | %7.0f | %8.3f | %8.3f | %8.3f "
-              "| %8.3f | %8.3f |\n",
+              "| %8.3f | %8.3f | %8.3f | %8.3f |\n",
               scene.size(), type, static_cast<double>(stats.pixels) / static_cast<double>(scene.size()), t_fwd,
               t_bwd, t_loss, t_rd_fwd, t_rd_bwd, t_rd_loss, total, 1000.0 / total, t_dir, t_rd_dir_fwd, t_rd_dir_bwd,
-              t_rd_beam_fwd, t_rd_beam_bwd);
+              t_rd_beam_fwd, t_rd_beam_bwd, t_view_fwd, t_view_bwd);
 }
 
 void print_render_header() {
   std::printf("| Gauss. | scalar | px/G     | RA fwd   | RA bwd   | RA loss  | RD fwd   | RD bwd   | RD loss  | total    | it/s    "
-              "| dirs     | RD+d fwd | RD+d bwd | RD+b fwd | RD+b bwd |\n");
+              "| dirs     | RD+d fwd | RD+d bwd | RD+b fwd | RD+b bwd | RA+v fwd | RA+v bwd |\n");
   std::printf("|--------|--------|----------|----------|----------|----------|----------|----------|----------|----------|---------"
-              "|----------|----------|----------|----------|----------|\n");
+              "|----------|----------|----------|----------|----------|----------|----------|\n");
 }
 
 // ---- the speed the RD model fits best on simulated frames

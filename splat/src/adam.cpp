@@ -79,6 +79,7 @@ SplatAdam::SplatAdam(const SplatAdamOptions& options, std::size_t pose_stride)
       rotations(4, options.lr_rotations),
       log_scales(3, options.lr_log_scales),
       log_returns(1, options.lr_log_returns),
+      view_returns(kViewTerms, options.lr_view_returns),
       poses(pose_stride, 1.0),
       options_(options) {
   if (pose_stride == 3) {
@@ -118,7 +119,8 @@ bool SplatAdam::step(const Step& s) {
   if (scene_on && finite) {
     const SceneGradients& g = *s.scene_gradients;
     finite = finite_rows(g.means, 3, s.gaussians) && finite_rows(g.rotations, 4, s.gaussians) &&
-             finite_rows(g.log_scales, 3, s.gaussians) && finite_rows(g.log_returns, 1, s.gaussians);
+             finite_rows(g.log_scales, 3, s.gaussians) && finite_rows(g.log_returns, 1, s.gaussians) &&
+             (!(view_returns.learning_rate() > 0) || finite_rows(g.view_returns, kViewTerms, s.gaussians));
   }
   if (!finite) {
     ++skipped_;
@@ -134,13 +136,19 @@ bool SplatAdam::step(const Step& s) {
   rotations.step(scene.mutable_rotations(), g.rotations, s.gaussians, o);
   log_scales.step(scene.mutable_log_scales(), g.log_scales, s.gaussians, o);
   log_returns.step(scene.mutable_log_returns(), g.log_returns, s.gaussians, o);
+  const bool view = view_returns.learning_rate() > 0;
+  if (view) view_returns.step(scene.mutable_view_returns(), g.view_returns, s.gaussians, o);
   // Keep exp() of the updated values finite (the full check is GaussianScene::sanitize()).
   const SceneOptions& so = scene.options();
   auto ls = scene.mutable_log_scales();
   auto lr = scene.mutable_log_returns();
+  auto vr = scene.mutable_view_returns();
   auto clamp_row = [&](std::size_t i) {
     for (int c = 0; c < 3; ++c) ls[3 * i + c] = std::clamp(ls[3 * i + c], so.min_log_scale, so.max_log_scale);
     lr[i] = std::clamp(lr[i], so.min_log_return, so.max_log_return);
+    if (view)
+      for (std::size_t c = 0; c < kViewTerms; ++c)
+        vr[kViewTerms * i + c] = std::clamp(vr[kViewTerms * i + c], -so.max_view_return, so.max_view_return);
   };
   if (s.gaussians.empty()) {
     for (std::size_t i = 0; i < scene.size(); ++i) clamp_row(i);
@@ -156,6 +164,8 @@ void SplatAdam::remap_scene(const SceneRemap& origin) {
   rotations.remap(origin);
   log_scales.remap(origin);
   log_returns.remap(origin);
+  // Untrained view returns have no state to carry (step() sizes it when they have a rate).
+  if (view_returns.rows() > 0) view_returns.remap(origin);
 }
 
 }  // namespace rsrio::splat

@@ -114,6 +114,9 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("elevation_gain_sigma_sin", o.elevation_gain_sigma_sin, {0.0, 10.0});
   node.read("range_falloff_exponent", o.range_falloff_exponent, {0.0, 8.0});
   node.read("azimuth_gain_sigma_deg", o.azimuth_gain_sigma_deg, {0.0, 180.0});
+  node.read("view_dependent_return", o.view_dependent_return);
+  node.read("lr_view_returns", o.lr_view_returns, {0.0, 10.0});
+  node.read("view_return_regulariser_weight", o.view_return_regulariser_weight, {0.0, 1e9});
   node.read("rd_kernel_sigma_bins", o.rd_kernel_sigma_bins, {0.0, 100.0});
   node.read("rd_window_bins", o.rd_window_bins, {0, 1000});
   node.read("rd_gain", o.rd_gain, {0.0, 1e12});
@@ -225,6 +228,9 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  elevation_gain_sigma_sin: " << o.elevation_gain_sigma_sin << "\n"
       << "  range_falloff_exponent: " << o.range_falloff_exponent << "\n"
       << "  azimuth_gain_sigma_deg: " << o.azimuth_gain_sigma_deg << "\n"
+      << "  view_dependent_return: " << (o.view_dependent_return ? "true" : "false") << "\n"
+      << "  lr_view_returns: " << o.lr_view_returns << "\n"
+      << "  view_return_regulariser_weight: " << o.view_return_regulariser_weight << "\n"
       << "  rd_kernel_sigma_bins: " << o.rd_kernel_sigma_bins << "\n"
       << "  rd_window_bins: " << o.rd_window_bins << "\n"
       << "  rd_gain: " << o.rd_gain << "\n"
@@ -418,6 +424,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
   ra_options_.elevation_gain_sigma_sin = options_.elevation_gain_sigma_sin;
   ra_options_.range_falloff_exponent = options_.range_falloff_exponent;
   ra_options_.azimuth_gain_sigma_deg = options_.azimuth_gain_sigma_deg;
+  ra_options_.view_dependent_return = options_.view_dependent_return;
   rd_options_.kernel_sigma_bins = options_.rd_kernel_sigma_bins > 0
                                       ? options_.rd_kernel_sigma_bins
                                       : window_power_fwhm_bins(options_.psf_doppler_window) / 2.355;
@@ -438,6 +445,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
   ao.lr_rotations = options_.lr_rotations;
   ao.lr_log_scales = options_.lr_log_scales;
   ao.lr_log_returns = options_.lr_log_returns;
+  ao.lr_view_returns = options_.view_dependent_return ? options_.lr_view_returns : 0.0;
   scene_adam_ = SplatAdam(ao, 3);
 }
 
@@ -859,6 +867,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
       scene_adam_.rotations.set_learning_rate(sa.lr_rotations * decay);
       scene_adam_.log_scales.set_learning_rate(sa.lr_log_scales * decay);
       scene_adam_.log_returns.set_learning_rate(sa.lr_log_returns * decay);
+      scene_adam_.view_returns.set_learning_rate(sa.lr_view_returns * decay);
       gradients_.zero_rows(rows);  // what the views draw and the regulariser sees: all that is read
     }
     for (Vector6d& g : grad_left) g.setZero();
@@ -881,7 +890,11 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
       if (use_rd && k > 0 && pose_row[k - 1] >= 0)
         grad_left[static_cast<std::size_t>(pose_row[k - 1])] += vj.d_previous.transpose() * g_v;
     }
-    if (optimise_scene) loss += scale_regulariser(scene_, rows, reg, &gradients_);
+    if (optimise_scene) {
+      loss += scale_regulariser(scene_, rows, reg, &gradients_);
+      if (options_.view_dependent_return)
+        loss += view_return_regulariser(scene_, rows, options_.view_return_regulariser_weight, &gradients_);
+    }
     if (options_.odometry_prior && priors) loss += odometry_prior(poses, pose_row, grad_left);
     if (!planar)
       for (std::size_t r = 0; r < poses.size(); ++r) {

@@ -34,6 +34,7 @@ void SceneGradients::reset(std::size_t n) {
   rotations.assign(4 * n, 0.0);
   log_scales.assign(3 * n, 0.0);
   log_returns.assign(n, 0.0);
+  view_returns.assign(kViewTerms * n, 0.0);
   image_mean_grad_norm.assign(n, 0.0);
   visible_count.assign(n, 0);
 }
@@ -42,7 +43,8 @@ bool SceneGradients::all_finite() const {
   auto ok = [](const std::vector<double>& v) {
     return std::all_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
   };
-  return ok(means) && ok(rotations) && ok(log_scales) && ok(log_returns) && ok(image_mean_grad_norm);
+  return ok(means) && ok(rotations) && ok(log_scales) && ok(log_returns) && ok(view_returns) &&
+         ok(image_mean_grad_norm);
 }
 
 void SceneGradients::zero_rows(std::span<const std::uint32_t> rows) {
@@ -51,6 +53,7 @@ void SceneGradients::zero_rows(std::span<const std::uint32_t> rows) {
     std::fill_n(&rotations[4 * i], 4, 0.0);
     std::fill_n(&log_scales[3 * i], 3, 0.0);
     log_returns[i] = 0;
+    std::fill_n(&view_returns[kViewTerms * i], kViewTerms, 0.0);
     image_mean_grad_norm[i] = 0;
     visible_count[i] = 0;
   }
@@ -60,7 +63,7 @@ bool SceneGradients::all_finite(std::span<const std::uint32_t> rows) const {
   auto ok = [](const double* v, int n) { return std::all_of(v, v + n, [](double x) { return std::isfinite(x); }); };
   return std::all_of(rows.begin(), rows.end(), [&](std::uint32_t i) {
     return ok(&means[3 * i], 3) && ok(&rotations[4 * i], 4) && ok(&log_scales[3 * i], 3) && ok(&log_returns[i], 1) &&
-           ok(&image_mean_grad_norm[i], 1);
+           ok(&view_returns[kViewTerms * i], kViewTerms) && ok(&image_mean_grad_norm[i], 1);
   });
 }
 
@@ -72,6 +75,7 @@ void SceneGradients::add(const SceneGradients& other) {
   acc(rotations, other.rotations);
   acc(log_scales, other.log_scales);
   acc(log_returns, other.log_returns);
+  acc(view_returns, other.view_returns);
   acc(image_mean_grad_norm, other.image_mean_grad_norm);
   for (std::size_t k = 0; k < visible_count.size(); ++k) visible_count[k] += other.visible_count[k];
 }
@@ -96,11 +100,15 @@ Eigen::Matrix3d GaussianScene::covariance(std::size_t i) const {
 }
 
 void GaussianScene::push_raw(const double* mean, const double* rotation, const double* log_scale,
-                             double log_return) {
+                             double log_return, const double* view) {
   means_.insert(means_.end(), mean, mean + 3);
   rotations_.insert(rotations_.end(), rotation, rotation + 4);
   log_scales_.insert(log_scales_.end(), log_scale, log_scale + 3);
   log_returns_.push_back(log_return);
+  if (view != nullptr)
+    view_returns_.insert(view_returns_.end(), view, view + kViewTerms);
+  else
+    view_returns_.resize(view_returns_.size() + kViewTerms, 0.0);
   densify_grad_accum_.push_back(0.0);
   densify_count_.push_back(0);
   index_stale_ = true;
@@ -184,6 +192,7 @@ SceneRemap GaussianScene::compact(const std::vector<char>& keep) {
       std::copy_n(&rotations_[4 * i], 4, &rotations_[4 * w]);
       std::copy_n(&log_scales_[3 * i], 3, &log_scales_[3 * w]);
       log_returns_[w] = log_returns_[i];
+      std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, &view_returns_[kViewTerms * w]);
       densify_grad_accum_[w] = densify_grad_accum_[i];
       densify_count_[w] = densify_count_[i];
     }
@@ -194,6 +203,7 @@ SceneRemap GaussianScene::compact(const std::vector<char>& keep) {
   rotations_.resize(4 * w);
   log_scales_.resize(3 * w);
   log_returns_.resize(w);
+  view_returns_.resize(kViewTerms * w);
   densify_grad_accum_.resize(w);
   densify_count_.resize(w);
   index_stale_ = true;
@@ -241,18 +251,21 @@ SceneRemap GaussianScene::densify(const Eigen::Vector3d& eviction_center) {
     std::copy_n(&rotations_[4 * i], 4, q);
     double child_ls[3] = {ls[0], ls[1], ls[2]};
     const double child_log_return = log_returns_[i] - log2;
+    // A copy: push_raw may reallocate the block the parent's terms live in.
+    double view[kViewTerms];
+    std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, view);
     if (ls[major] > log_split_scale) {
       for (double& v : child_ls) v -= log_divisor;
       for (int c = 0; c < 2; ++c) {
         const Eigen::Vector3d eps(normal(rng), normal(rng), normal(rng));
         const Eigen::Vector3d child = mu + rot * s.cwiseProduct(eps);
-        push_raw(child.data(), q, child_ls, child_log_return);
+        push_raw(child.data(), q, child_ls, child_log_return, view);
       }
     } else {
       const Eigen::Vector3d offset = 0.5 * s[major] * rot.col(major);
       const Eigen::Vector3d a = mu + offset, b = mu - offset;
-      push_raw(a.data(), q, child_ls, child_log_return);
-      push_raw(b.data(), q, child_ls, child_log_return);
+      push_raw(a.data(), q, child_ls, child_log_return, view);
+      push_raw(b.data(), q, child_ls, child_log_return, view);
     }
   }
   // New Gaussians sit behind the n old ones; keep them all.
@@ -288,7 +301,7 @@ SceneRemap GaussianScene::sanitize() {
   for (std::size_t i = 0; i < size(); ++i) {
     double* q = &rotations_[4 * i];
     if (!finite_all(&means_[3 * i], 3) || !finite_all(q, 4) || !finite_all(&log_scales_[3 * i], 3) ||
-        !std::isfinite(log_returns_[i])) {
+        !std::isfinite(log_returns_[i]) || !finite_all(&view_returns_[kViewTerms * i], kViewTerms)) {
       keep[i] = 0;
       ++removed_non_finite_;
       continue;
@@ -305,6 +318,9 @@ SceneRemap GaussianScene::sanitize() {
     for (int k = 0; k < 3; ++k)
       log_scales_[3 * i + k] = std::clamp(log_scales_[3 * i + k], options_.min_log_scale, options_.max_log_scale);
     log_returns_[i] = std::clamp(log_returns_[i], options_.min_log_return, options_.max_log_return);
+    for (std::size_t k = 0; k < kViewTerms; ++k)
+      view_returns_[kViewTerms * i + k] =
+          std::clamp(view_returns_[kViewTerms * i + k], -options_.max_view_return, options_.max_view_return);
   }
   return compact(keep);
 }

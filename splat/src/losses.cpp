@@ -246,6 +246,21 @@ double ImageLoss<Scalar>::evaluate(const Image<Scalar>& rendered_linear, const I
 }
 
 // ---------------------------------------------------------------------------------------------
+namespace {
+
+// visit(i) for the listed Gaussians in the scene, or for all of them when the list is empty.
+template <typename Visit>
+void for_listed(const GaussianScene& scene, std::span<const std::uint32_t> gaussians, Visit&& visit) {
+  if (gaussians.empty()) {
+    for (std::size_t i = 0; i < scene.size(); ++i) visit(i);
+    return;
+  }
+  for (const std::uint32_t i : gaussians)
+    if (i < scene.size()) visit(i);
+}
+
+}  // namespace
+
 double scale_regulariser(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
                          const ScaleRegulariserOptions& options, SceneGradients* gradients) {
   const std::size_t n = gaussians.empty() ? scene.size() : gaussians.size();
@@ -261,12 +276,24 @@ double scale_regulariser(const GaussianScene& scene, std::span<const std::uint32
       if (gradients != nullptr) gradients->log_scales[3 * i + c] += factor * s;
     }
   };
-  if (gaussians.empty()) {
-    for (std::size_t i = 0; i < scene.size(); ++i) visit(i);
-  } else {
-    for (const std::uint32_t i : gaussians)
-      if (i < scene.size()) visit(i);
-  }
+  for_listed(scene, gaussians, visit);
+  return factor * sum;
+}
+
+double view_return_regulariser(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
+                               double weight, SceneGradients* gradients) {
+  const std::size_t n = gaussians.empty() ? scene.size() : gaussians.size();
+  if (n == 0 || weight == 0) return 0.0;
+  const double factor = weight / static_cast<double>(kViewTerms * n);
+  const auto view = scene.view_returns();
+  double sum = 0;
+  auto visit = [&](std::size_t i) {
+    for (std::size_t c = kViewTerms * i; c < kViewTerms * (i + 1); ++c) {
+      sum += view[c] * view[c];
+      if (gradients != nullptr) gradients->view_returns[c] += 2 * factor * view[c];
+    }
+  };
+  for_listed(scene, gaussians, visit);
   return factor * sum;
 }
 

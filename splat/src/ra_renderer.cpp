@@ -66,6 +66,7 @@ struct Context {
   double falloff_reference = 1;
   double min_range = 0;
   double min_forward = 0;
+  bool view_return = false;
 };
 
 // One Gaussian's projection with every intermediate the backward pass needs.
@@ -95,7 +96,36 @@ struct Projection {
   double falloff = 1;
   double theta = 0;                      // atan2(p_y, p_x)
   double azimuth_gain = 1;
+  // View-dependent return: d = R^T p (world-frame view direction), phi its horizontal azimuth.
+  Eigen::Vector3d view_dir = Eigen::Vector3d::Zero();
+  double view_planar2 = 0;               // d_x^2 + d_y^2; 0: seen from straight above, isotropic
+  double view_basis[kViewTerms] = {};    // cos phi, sin phi, cos 2 phi, sin 2 phi
+  double view_slope = 0;                 // d log v / d phi
+  double view = 1;                       // v(phi)
 };
+
+// The Fourier basis of the view return at the world-frame view direction d, and v and its slope
+// in phi for the coefficients c.
+void view_return(const Eigen::Vector3d& d, const double* c, Projection& g) {
+  g.view_dir = d;
+  g.view_planar2 = d.x() * d.x() + d.y() * d.y();
+  g.view = 1;
+  g.view_slope = 0;
+  std::fill_n(g.view_basis, kViewTerms, 0.0);
+  if (!(g.view_planar2 > 1e-18)) return;
+  const double inv = 1.0 / std::sqrt(g.view_planar2);
+  const double cs = d.x() * inv, sn = d.y() * inv;
+  const double cos2 = cs * cs - sn * sn, sin2 = 2 * cs * sn;
+  g.view_basis[0] = cs;
+  g.view_basis[1] = sn;
+  g.view_basis[2] = cos2;
+  g.view_basis[3] = sin2;
+  double log_v = 0;
+  for (std::size_t k = 0; k < kViewTerms; ++k) log_v += c[k] * g.view_basis[k];
+  g.view = std::exp(log_v);
+  // d basis / d phi = (-sin, cos, -2 sin 2 phi, 2 cos 2 phi).
+  g.view_slope = -c[0] * sn + c[1] * cs - 2 * c[2] * sin2 + 2 * c[3] * cos2;
+}
 
 void project(const GaussianScene& scene, std::size_t i, const Eigen::Matrix3d& r_tw,
              const Eigen::Vector3d& t_tw, const Context& ctx, Projection& g) {
@@ -155,7 +185,12 @@ void project(const GaussianScene& scene, std::size_t i, const Eigen::Matrix3d& r
   g.falloff = range_falloff(ctx.falloff_exponent, ctx.falloff_reference, inv_r);
   if (ctx.inv_azimuth_var > 0) g.theta = std::atan2(g.p.y(), g.p.x());
   g.azimuth_gain = azimuth_gain(g.theta, ctx.inv_azimuth_var);
-  g.amplitude = g.rho * g.gain * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
+  if (ctx.view_return) {
+    view_return(r_tw.transpose() * g.p, &scene.view_returns()[kViewTerms * i], g);
+  } else {
+    g.view = 1;
+  }
+  g.amplitude = g.rho * g.view * g.gain * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
   g.visible = std::isfinite(g.amplitude) && std::isfinite(mu_r) && std::isfinite(mu_a);
 }
 
@@ -286,6 +321,7 @@ Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o) {
   c.falloff_reference = o.range_falloff_reference_m;
   c.min_range = std::max(o.min_range_m, 1e-6);
   c.min_forward = o.min_forward_m;
+  c.view_return = o.view_dependent_return;
   return c;
 }
 
@@ -509,7 +545,15 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
 
     // ---- amplitude factors.
     const double grad_log_return = grad_amp * amp;
-    const double grad_gain = grad_amp * g.rho * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
+    const double grad_gain =
+        grad_amp * g.rho * g.view * g.falloff * g.azimuth_gain * ctx.psf_sqrt_det / std::sqrt(g.det2);
+    // View return: d log v / d c_k = b_k(phi); phi is the azimuth of d = R^T p = mu - (radar
+    // position), so d phi / d mu = (-d_y, d_x, 0) / (d_x^2 + d_y^2), and under the pose's left
+    // increment the radar position moves by -R^T rho (d by +R^T rho) while omega leaves it.
+    Eigen::Vector3d grad_view_dir = Eigen::Vector3d::Zero();
+    if (ctx.view_return && g.view_planar2 > 1e-18)
+      grad_view_dir = grad_amp * amp * g.view_slope / g.view_planar2 *
+                      Eigen::Vector3d(-g.view_dir.y(), g.view_dir.x(), 0.0);
     double grad_range_m = ctx.falloff_exponent != 0 ? -grad_amp * amp * ctx.falloff_exponent / g.range : 0.0;
     // Azimuth gain: d log(gain) / d theta = -theta / sigma^2, d theta / dp = (-p_y, p_x, 0) / (p_x^2 + p_y^2).
     const double grad_theta = ctx.inv_azimuth_var > 0 ? -grad_amp * amp * g.theta * ctx.inv_azimuth_var : 0.0;
@@ -559,14 +603,14 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
 
     // ---- pose (left increment): p <- p + rho + omega x p, Sigma_r <- Sigma_r + [w]x Sigma_r - Sigma_r [w]x.
     if (grad_pose != nullptr) {
-      grad_rho_pose += grad_p;
+      grad_rho_pose += grad_p + r_tw * grad_view_dir;
       grad_omega_pose += g.p.cross(grad_p) +
                          vee_antisym(g.sigma_radar * grad_sigma_radar - grad_sigma_radar * g.sigma_radar);
     }
     if (gradients == nullptr) return;
 
     // ---- world-frame mean and covariance.
-    const Eigen::Vector3d grad_mean = r_tw.transpose() * grad_p;
+    const Eigen::Vector3d grad_mean = r_tw.transpose() * grad_p + grad_view_dir;
     const Eigen::Matrix3d grad_sigma_world = r_tw.transpose() * grad_sigma_radar * r_tw;
     // Sigma = M M^T, M = R(q) diag(s).
     const Eigen::Matrix3d m = g.rot_q * g.scale.asDiagonal();
@@ -583,6 +627,9 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
     }
     for (int c = 0; c < 4; ++c) gradients->rotations[4 * i + c] += grad_q[c];
     gradients->log_returns[i] += grad_log_return;
+    if (ctx.view_return)
+      for (std::size_t c = 0; c < kViewTerms; ++c)
+        gradients->view_returns[kViewTerms * i + c] += grad_log_return * g.view_basis[c];
     gradients->image_mean_grad_norm[i] += grad_mu.norm();
     gradients->visible_count[i] += 1;
   });

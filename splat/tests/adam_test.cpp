@@ -1,6 +1,7 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_floating_point.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -76,4 +77,39 @@ TEST_CASE("SplatAdam: the NaN guard skips and counts a step with a non-finite gr
   pose_grad[1] = std::numeric_limits<double>::infinity();
   CHECK_FALSE(adam.step(step));
   CHECK(adam.skipped() == 2);
+}
+
+TEST_CASE("SplatAdam: the view returns are stepped, guarded and clamped only when they have a rate",
+          "[splat][adam]") {
+  GaussianScene scene;
+  scene.add(Eigen::Vector3d(1, 2, 3), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(-2), 0.0);
+  SceneGradients g;
+  g.reset(scene.size());
+  std::fill(g.view_returns.begin(), g.view_returns.end(), 1.0);
+  SplatAdam::Step step;
+  step.scene = &scene;
+  step.scene_gradients = &g;
+
+  SplatAdam off(SplatAdamOptions{}, 3);  // lr_view_returns 0: isotropic returns stay so
+  CHECK(off.step(step));
+  off.remap_scene(SceneRemap{0, -1});
+  CHECK(off.view_returns.rows() == 0);  // no optimiser state for them either
+  CHECK(std::all_of(scene.view_returns().begin(), scene.view_returns().end(), [](double c) { return c == 0.0; }));
+  g.view_returns[2] = std::numeric_limits<double>::quiet_NaN();  // not used: not a reason to skip
+  CHECK(off.step(step));
+
+  SplatAdamOptions o;
+  o.lr_view_returns = 0.1;
+  SplatAdam on(o, 3);
+  CHECK_FALSE(on.step(step));  // used now: the guard skips the step
+  CHECK(on.skipped() == 1);
+  g.view_returns[2] = 1.0;
+  CHECK(on.step(step));
+  for (const double c : scene.view_returns()) CHECK_THAT(c, WithinAbs(-0.1, 1e-12));
+  scene.mutable_view_returns()[1] = -scene.options().max_view_return;
+  CHECK(on.step(step));
+  CHECK(scene.view_returns()[1] == -scene.options().max_view_return);
+  // A structure change carries the moments with the Gaussians.
+  on.remap_scene(SceneRemap{-1, 0});
+  CHECK(on.view_returns.rows() == 2);
 }

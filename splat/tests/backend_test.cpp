@@ -157,6 +157,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  rd_elevation_sigma_sin: 0.156\n"
       "  rd_image_gradient: false\n"
       "  azimuth_gain_sigma_deg: 36\n"
+      "  view_dependent_return: true\n"
+      "  lr_view_returns: 0.02\n"
       "  occlusion_threshold: 0.5\n"
       "  occlusion_margin_m: 0.3\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n"
@@ -173,6 +175,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.rd_elevation_sigma_sin == 0.156);
   CHECK_FALSE(o.rd_image_gradient);
   CHECK(o.azimuth_gain_sigma_deg == 36);
+  CHECK(o.view_dependent_return);
+  CHECK(o.lr_view_returns == 0.02);
+  CHECK(o.view_return_regulariser_weight == BackendOptions{}.view_return_regulariser_weight);
   CHECK(o.occlusion_threshold == 0.5);
   CHECK(o.occlusion_margin_m == 0.3);
   CHECK(o.occlusion_row_db == BackendOptions{}.occlusion_row_db);
@@ -228,6 +233,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(load("backend: {max_keyframes: 7000}\n").max_keyframes == 7000);
   fails_on("backend: {coverage_margin_bins: -1}\n", "coverage_margin_bins");
   fails_on("backend: {occlusion_threshold: -0.5}\n", "occlusion_threshold");
+  fails_on("backend: {view_dependent_return: maybe}\n", "view_dependent_return");
+  fails_on("backend: {view_return_regulariser_weight: -1}\n", "view_return_regulariser_weight");
   fails_on("backend: {occlusion_margin_m: [1]}\n", "occlusion_margin_m");
   fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps

@@ -1,6 +1,7 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_floating_point.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -110,6 +111,43 @@ TEST_CASE("The combined loss on compressed images: gradient w.r.t. the linear re
   const std::vector<float> values = {0.f, 1.f, 2.f, 3.f, 4.f, 5.f};
   CHECK(percentile_reference(values, 100.0) == 5.0);
   CHECK(percentile_reference(values, 0.0) == 1.0);
+}
+
+TEST_CASE("View-return regulariser: value and gradient", "[splat][loss]") {
+  std::mt19937_64 rng(3);
+  GaussianScene scene = random_scene(rng, Eigen::Isometry3d::Identity(), 6);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (double& c : scene.mutable_view_returns()) c = u(rng);
+  SceneGradients g;
+  g.reset(scene.size());
+  const double weight = 3.0;
+  const double value = view_return_regulariser(scene, {}, weight, &g);
+  double sum = 0;
+  for (const double c : scene.view_returns()) sum += c * c;
+  CHECK_THAT(value, Catch::Matchers::WithinRel(weight * sum / static_cast<double>(scene.view_returns().size()), 1e-12));
+  std::vector<double> numeric(g.view_returns.size());
+  for (std::size_t k = 0; k < numeric.size(); ++k) {
+    const double x0 = scene.view_returns()[k];
+    numeric[k] = central_difference(
+        [&](double v) {
+          scene.mutable_view_returns()[k] = v;
+          return view_return_regulariser(scene, {}, weight, nullptr);
+        },
+        x0, 1e-6);
+    scene.mutable_view_returns()[k] = x0;
+  }
+  const double err = relative_error(g.view_returns, numeric);
+  std::printf("view-return regulariser gradcheck: %.2e\n", err);
+  CHECK(err < 1e-6);
+  // A list restricts the mean and the gradient to the listed Gaussians.
+  SceneGradients h;
+  h.reset(scene.size());
+  const std::vector<std::uint32_t> one = {2};
+  double own = 0;
+  for (std::size_t c = 0; c < kViewTerms; ++c) own += std::pow(scene.view_returns()[kViewTerms * 2 + c], 2);
+  CHECK_THAT(view_return_regulariser(scene, one, weight, &h), Catch::Matchers::WithinRel(weight * own / kViewTerms, 1e-12));
+  CHECK(h.view_returns[0] == 0.0);
+  CHECK(h.view_returns[kViewTerms * 2] == 2 * weight / kViewTerms * scene.view_returns()[kViewTerms * 2]);
 }
 
 TEST_CASE("Scale regulariser: value and gradient", "[splat][loss]") {

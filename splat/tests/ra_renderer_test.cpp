@@ -1,9 +1,12 @@
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_floating_point.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <numbers>
 #include <random>
+#include <utility>
 
 #include "rsrio/splat/ra_renderer.hpp"
 #include "splat_test_support.hpp"
@@ -22,7 +25,7 @@ double weighted_sum(const RaRenderer<double>& renderer, const GaussianScene& sce
 }
 
 struct GradCheck {
-  double mean = 0, rotation = 0, log_scale = 0, log_return = 0, pose6 = 0, pose3 = 0;
+  double mean = 0, rotation = 0, log_scale = 0, log_return = 0, view_return = 0, pose6 = 0, pose3 = 0;
 };
 
 GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
@@ -40,6 +43,8 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
   const Eigen::Isometry3d pose = planar.radar_T_world();
   GaussianScene scene = random_scene(rng, pose, 8);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
+  if (options.view_dependent_return)
+    for (double& c : scene.mutable_view_returns()) c = 0.7 * u(rng);
   Image<double> weights(grid.range_bins, grid.azimuth_bins);
   for (Eigen::Index k = 0; k < weights.size(); ++k) weights.data()[k] = u(rng);
 
@@ -73,6 +78,7 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
   out.rotation = param_check(&GaussianScene::mutable_rotations, grads.rotations, 4, 1e-6);
   out.log_scale = param_check(&GaussianScene::mutable_log_scales, grads.log_scales, 3, 1e-6);
   out.log_return = param_check(&GaussianScene::mutable_log_returns, grads.log_returns, 1, 1e-6);
+  out.view_return = param_check(&GaussianScene::mutable_view_returns, grads.view_returns, kViewTerms, 1e-6);
 
   std::vector<double> numeric6(6);
   for (int k = 0; k < 6; ++k)
@@ -96,11 +102,11 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
         },
         0.0, 1e-6);
   out.pose3 = relative_error(to_vector(analytic3), numeric3);
-  std::printf("RA gradcheck (elevation gain %.2f, falloff %.1f, azimuth gain %.0f deg): mean %.2e rotation %.2e "
-              "log-scale %.2e log-return %.2e pose6 %.2e pose3 %.2e\n",
+  std::printf("RA gradcheck (elevation gain %.2f, falloff %.1f, azimuth gain %.0f deg, view return %d): mean %.2e "
+              "rotation %.2e log-scale %.2e log-return %.2e view-return %.2e pose6 %.2e pose3 %.2e\n",
               options.elevation_gain_sigma_sin, options.range_falloff_exponent, options.azimuth_gain_sigma_deg,
-              out.mean, out.rotation,
-              out.log_scale, out.log_return, out.pose6, out.pose3);
+              options.view_dependent_return ? 1 : 0, out.mean, out.rotation, out.log_scale, out.log_return,
+              out.view_return, out.pose6, out.pose3);
   return out;
 }
 
@@ -109,6 +115,7 @@ void require_small(const GradCheck& g) {
   CHECK(g.rotation < 1e-3);
   CHECK(g.log_scale < 1e-3);
   CHECK(g.log_return < 1e-3);
+  CHECK(g.view_return < 1e-3);
   CHECK(g.pose6 < 1e-3);
   CHECK(g.pose3 < 1e-3);
 }
@@ -139,6 +146,49 @@ TEST_CASE("RA gradients match central differences (azimuth gain, with and withou
   options.range_falloff_exponent = 4.0;
   options.range_falloff_reference_m = 3.0;
   require_small(check_gradients(options, 8u));
+}
+
+TEST_CASE("RA gradients match central differences (view-dependent return, with and without the rest)",
+          "[splat][ra]") {
+  RaRenderOptions options;
+  options.cutoff_sigma = 7.0;
+  options.view_dependent_return = true;
+  for (std::uint64_t seed : {9u, 10u}) require_small(check_gradients(options, seed));
+  options.elevation_gain_sigma_sin = 0.25;
+  options.range_falloff_exponent = 4.0;
+  options.range_falloff_reference_m = 3.0;
+  options.azimuth_gain_sigma_deg = 30.0;
+  require_small(check_gradients(options, 11u));
+}
+
+TEST_CASE("A view-dependent return scales a Gaussian by exp(c . b(phi)) at the world azimuth it is seen from",
+          "[splat][ra]") {
+  const RadarImageGrid grid = small_grid();
+  RaRenderOptions on;
+  on.view_dependent_return = true;
+  const RaRenderer<double> isotropic(grid), viewed(grid, on);
+  GaussianScene scene;
+  REQUIRE(scene.add({3.0, 1.0, 0.0}, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.05)), 0.0));
+  const double c[kViewTerms] = {0.4, -0.3, 0.2, 0.5};
+  std::copy_n(c, kViewTerms, scene.mutable_view_returns().data());
+  // Two radar positions that see the Gaussian from different world azimuths, the second also
+  // turned, so that only the world-frame direction (not the radar-frame one) may matter.
+  for (const auto& [position, yaw] : {std::pair{Eigen::Vector2d(0.0, 0.0), 0.0},
+                                      std::pair{Eigen::Vector2d(0.5, -1.5), 0.6}}) {
+    PlanarPose planar;
+    planar.x = position.x();
+    planar.y = position.y();
+    planar.yaw = yaw;
+    const Eigen::Isometry3d pose = planar.radar_T_world();
+    const double phi = std::atan2(1.0 - position.y(), 3.0 - position.x());
+    const double expected =
+        std::exp(c[0] * std::cos(phi) + c[1] * std::sin(phi) + c[2] * std::cos(2 * phi) + c[3] * std::sin(2 * phi));
+    const GaussianFootprint a = isotropic.footprint(scene, 0, pose), b = viewed.footprint(scene, 0, pose);
+    REQUIRE(a.visible);
+    REQUIRE(b.visible);
+    CHECK_THAT(b.amplitude / a.amplitude, Catch::Matchers::WithinRel(expected, 1e-12));
+    CHECK_THAT(b.range_bin, Catch::Matchers::WithinAbs(a.range_bin, 1e-12));
+  }
 }
 
 TEST_CASE("The azimuth gain dims a Gaussian by the two-way pattern at its azimuth", "[splat][ra]") {

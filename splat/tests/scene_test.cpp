@@ -127,6 +127,14 @@ TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
   g.reset(scene.size());
   g.image_mean_grad_norm = {0.01, 0.02, 1e-5};
   g.visible_count = {2, 4, 1};
+  // Each Gaussian's view returns tell it apart: the children must carry their parent's.
+  for (std::size_t i = 0; i < scene.size(); ++i)
+    for (std::size_t c = 0; c < kViewTerms; ++c) scene.mutable_view_returns()[kViewTerms * i + c] = 0.1 * (i + 1) + 0.01 * c;
+  const auto view_of = [&](std::size_t i) {
+    return std::vector<double>(scene.view_returns().begin() + kViewTerms * i,
+                               scene.view_returns().begin() + kViewTerms * (i + 1));
+  };
+  const std::vector<double> view_clone = view_of(0), view_split = view_of(1), view_quiet = view_of(2);
   scene.accumulate_densify_stats(g);
   remap = scene.densify(Eigen::Vector3d::Zero());
   // Survivor first (the quiet one), then clone pair, then split pair.
@@ -138,6 +146,11 @@ TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
   CHECK_THAT(scene.scale(3)[0], Catch::Matchers::WithinRel(0.5 / 1.6, 1e-12));  // split shrinks
   CHECK_THAT((scene.mean(1) - scene.mean(2)).norm(), Catch::Matchers::WithinRel(0.1, 1e-9));
   CHECK(std::all_of(scene.densify_count().begin(), scene.densify_count().end(), [](auto c) { return c == 0; }));
+  CHECK(view_of(0) == view_quiet);
+  CHECK(view_of(1) == view_clone);
+  CHECK(view_of(2) == view_clone);
+  CHECK(view_of(3) == view_split);
+  CHECK(view_of(4) == view_split);
 
   // A NaN that got in through a parameter block is removed by sanitize() and counted.
   scene.mutable_log_scales()[3 * 2 + 1] = std::numeric_limits<double>::infinity();
@@ -145,11 +158,19 @@ TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
   scene.mutable_rotations()[4 * 0 + 1] = 0;
   scene.mutable_rotations()[4 * 0 + 2] = 0;
   scene.mutable_rotations()[4 * 0 + 3] = 0;
+  scene.mutable_view_returns()[kViewTerms * 4 + 2] = 1e3;  // clamped to max_view_return
   remap = scene.sanitize();
   CHECK(scene.size() == 4);
   CHECK(scene.removed_non_finite() == 1);
   CHECK(remap == SceneRemap{0, 1, 3, 4});
   CHECK(scene.rotations()[0] == 1.0);
+  CHECK(view_of(2) == view_split);  // compacted with the rest of its Gaussian
+  CHECK(scene.view_returns()[kViewTerms * 3 + 2] == o.max_view_return);
+  // ... and a non-finite view return removes its Gaussian too.
+  scene.mutable_view_returns()[kViewTerms * 1 + 3] = std::numeric_limits<double>::quiet_NaN();
+  remap = scene.sanitize();
+  CHECK(remap == SceneRemap{0, 2, 3});
+  CHECK(scene.removed_non_finite() == 2);
 }
 
 TEST_CASE("add_points keeps a minimum spacing to existing and new Gaussians", "[splat][scene]") {
@@ -170,7 +191,7 @@ TEST_CASE("add_points keeps a minimum spacing to existing and new Gaussians", "[
 TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed Gaussians", "[splat][scene]") {
   SceneGradients g;
   g.reset(5);
-  for (auto* v : {&g.means, &g.rotations, &g.log_scales, &g.log_returns, &g.image_mean_grad_norm})
+  for (auto* v : {&g.means, &g.rotations, &g.log_scales, &g.log_returns, &g.view_returns, &g.image_mean_grad_norm})
     std::fill(v->begin(), v->end(), 1.0);
   std::fill(g.visible_count.begin(), g.visible_count.end(), 3u);
   const std::vector<std::uint32_t> rows{1, 3};
@@ -181,6 +202,7 @@ TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed 
     CHECK(g.rotations[4 * i + 3] == expected);
     CHECK(g.log_scales[3 * i] == expected);
     CHECK(g.log_returns[i] == expected);
+    CHECK(g.view_returns[kViewTerms * i + 1] == expected);
     CHECK(g.image_mean_grad_norm[i] == expected);
     CHECK(g.visible_count[i] == (expected == 0.0 ? 0u : 3u));
   }
@@ -191,4 +213,6 @@ TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed 
   g.log_scales[3 * 3 + 2] = std::numeric_limits<double>::infinity();
   CHECK_FALSE(g.all_finite(rows));
   CHECK(g.all_finite(std::vector<std::uint32_t>{0, 4}));
+  g.view_returns[kViewTerms * 4 + 3] = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(g.all_finite(std::vector<std::uint32_t>{0, 4}));
 }

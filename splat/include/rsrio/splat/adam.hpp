@@ -8,7 +8,7 @@
 //
 // SplatAdam: the five groups of the paper's optimisation (means, rotations, log-scales,
 // log-returns, poses), each with its learning rate (poses: separate rates for translation and
-// rotation), and the NaN guard: a step whose gradient has any non-finite value changes nothing
+// rotation), the view returns' when they are trained (lr_view_returns > 0), and the NaN guard: a step whose gradient has any non-finite value changes nothing
 // and is counted (skipped()).
 //
 // Pose parameters: for planar poses the parameters are (x, y, yaw) themselves. For 6-DoF poses
@@ -69,6 +69,7 @@ struct SplatAdamOptions {
   double lr_rotations = 1e-3;
   double lr_log_scales = 5e-3;
   double lr_log_returns = 5e-2;
+  double lr_view_returns = 0;        // 0: the view returns are not stepped (isotropic returns)
   double lr_pose_translation = 5e-3; // m
   double lr_pose_rotation = 2e-3;    // rad
 };
@@ -88,8 +89,8 @@ class SplatAdam {
   };
 
   /// The NaN guard, then one Adam step. Returns false (and counts) when a gradient that would
-  /// be used is not finite; nothing is changed then. Updated log-scales and log-returns are
-  /// clamped into the scene's bounds.
+  /// be used is not finite; nothing is changed then. Updated log-scales, log-returns and view
+  /// returns are clamped into the scene's bounds.
   bool step(const Step& step);
 
   /// After a structure change of the scene.
@@ -103,6 +104,7 @@ class SplatAdam {
   AdamBlock rotations{4, 0};
   AdamBlock log_scales{3, 0};
   AdamBlock log_returns{1, 0};
+  AdamBlock view_returns{kViewTerms, 0};
   AdamBlock poses{3, 0};
 
  private:

@@ -162,6 +162,13 @@ struct BackendOptions {
   double elevation_gain_sigma_sin = 0; // RaRenderOptions
   double range_falloff_exponent = 0;   // RaRenderOptions (reference 1 m); 4: the radar equation
   double azimuth_gain_sigma_deg = 0;   // RaRenderOptions; the shipped scenarios' beam: 36
+  // Each Gaussian's return depends on the horizontal direction it is seen from (RaRenderOptions::
+  // view_dependent_return; RadarSplat's reflectance is view-dependent through spherical
+  // harmonics), trained at lr_view_returns and held towards isotropic by
+  // view_return_regulariser_weight (mean over the stage's Gaussians of their terms' squares).
+  bool view_dependent_return = false;
+  double lr_view_returns = 0.03;
+  double view_return_regulariser_weight = 1.0;
   // Doppler soft-binning sigma in bins. <= 0: the DSP's Doppler main lobe (psf_doppler_window's
   // power FWHM / 2.355, 0.61 bins for hann). The paper's 3 bins suit its fine Doppler bins; on
   // an xwr1843 frame (0.29 m/s bins) 3 bins blur the RD image so much that it hardly depends

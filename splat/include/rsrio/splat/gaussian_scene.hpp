@@ -6,6 +6,12 @@
 //   return      log rho (1): the return ratio rho = exp(param) > 0. exp rather than softplus: the
 //               radar power spans several decades, and an Adam step on log rho is a relative
 //               change whatever the magnitude.
+//   view return c (kViewTerms): the return's dependence on the direction it is seen from, a
+//               Fourier series in the horizontal azimuth phi of the view (world frame) added to
+//               log rho: rho(phi) = rho exp(c1 cos phi + c2 sin phi + c3 cos 2 phi + c4 sin 2 phi).
+//               RadarSplat's reflectance is view-dependent through spherical harmonics; with
+//               elevation marginalised the horizontal circle's harmonics are what is left. Zero
+//               (isotropic) unless the renderer's view_dependent_return is on and it is trained.
 //
 // Stored as structure of arrays, one contiguous block per parameter kind with the stride given
 // above (means[3 i + k], ...), which is also how gradients (SceneGradients) and the optimiser's
@@ -39,6 +45,9 @@ namespace rsrio::splat {
 
 using SceneRemap = std::vector<std::int32_t>;
 
+/// Fourier terms of a Gaussian's view-dependent return: cos phi, sin phi, cos 2 phi, sin 2 phi.
+inline constexpr std::size_t kViewTerms = 4;
+
 struct SceneOptions {
   std::size_t max_gaussians = 200'000;  // hard cap (about 30 MB with optimiser state)
   double index_cell_m = 1.0;            // spatial-hash cell size
@@ -47,6 +56,7 @@ struct SceneOptions {
   double max_log_scale = 4.0;           // ~55 m
   double min_log_return = -60.0;
   double max_log_return = 60.0;
+  double max_view_return = 5.0;         // |c_k|: the view factor stays within e^(+-20)
   // Pruning.
   double prune_min_return = 1e-8;       // rho below this: the Gaussian contributes nothing
   double prune_max_scale_m = 3.0;       // any axis above this: a blob that explains nothing
@@ -63,6 +73,7 @@ struct SceneGradients {
   std::vector<double> rotations;      // 4 N (w.r.t. the stored, unnormalised quaternion)
   std::vector<double> log_scales;     // 3 N
   std::vector<double> log_returns;    // N
+  std::vector<double> view_returns;   // kViewTerms N
   /// Densification statistic: sum over renders of |dL/d(mean in (range, azimuth) bins)|, and the
   /// number of renders in which the Gaussian touched a pixel.
   std::vector<double> image_mean_grad_norm;  // N
@@ -102,6 +113,7 @@ class GaussianScene {
   std::span<const double> rotations() const { return rotations_; }
   std::span<const double> log_scales() const { return log_scales_; }
   std::span<const double> log_returns() const { return log_returns_; }
+  std::span<const double> view_returns() const { return view_returns_; }
   std::span<double> mutable_means() {
     index_stale_ = true;
     return means_;
@@ -109,6 +121,7 @@ class GaussianScene {
   std::span<double> mutable_rotations() { return rotations_; }
   std::span<double> mutable_log_scales() { return log_scales_; }
   std::span<double> mutable_log_returns() { return log_returns_; }
+  std::span<double> mutable_view_returns() { return view_returns_; }
 
   // ---- per-Gaussian views
   Eigen::Vector3d mean(std::size_t i) const { return {means_[3 * i], means_[3 * i + 1], means_[3 * i + 2]}; }
@@ -140,13 +153,15 @@ class GaussianScene {
   ///       Gaussian N(mu, Sigma) (seeded), scales / densify_split_divisor;
   ///   otherwise                              -> CLONE: replaced by two copies displaced by
   ///       +-0.5 sigma along the largest axis.
-  /// Children carry rho / 2 each: rendering is a plain sum, so the pair keeps the parent's energy.
+  /// Children carry rho / 2 each: rendering is a plain sum, so the pair keeps the parent's energy;
+  /// they keep its view terms.
   /// Resets the statistics and enforces the cap around `eviction_center`.
   SceneRemap densify(const Eigen::Vector3d& eviction_center);
   /// Evicts the Gaussians farthest from `center` until size() <= max_gaussians.
   SceneRemap enforce_cap(const Eigen::Vector3d& center);
   /// Removes Gaussians with a non-finite parameter (counted), renormalises degenerate
-  /// quaternions to identity, clamps log-scales and log-returns into the option bounds.
+  /// quaternions to identity, clamps log-scales, log-returns and view returns into the option
+  /// bounds.
   SceneRemap sanitize();
 
   // ---- spatial index
@@ -165,7 +180,9 @@ class GaussianScene {
  private:
   /// Keeps Gaussians with keep[i], in order; returns the remap.
   SceneRemap compact(const std::vector<char>& keep);
-  void push_raw(const double* mean, const double* rotation, const double* log_scale, double log_return);
+  /// view == nullptr: isotropic (zero view terms).
+  void push_raw(const double* mean, const double* rotation, const double* log_scale, double log_return,
+                const double* view = nullptr);
   static SceneRemap compose(const SceneRemap& first, const SceneRemap& second);
   /// Whether an indexed Gaussian lies within radius of p, from the index as last built (no rebuild).
   bool any_indexed_within(const Eigen::Vector3d& p, double radius) const;
@@ -180,7 +197,7 @@ class GaussianScene {
   bool cells_to_visit(const Eigen::Vector3d& p, double radius, CellBox& box) const;
 
   SceneOptions options_;
-  std::vector<double> means_, rotations_, log_scales_, log_returns_;
+  std::vector<double> means_, rotations_, log_scales_, log_returns_, view_returns_;
   std::vector<double> densify_grad_accum_;
   std::vector<std::uint32_t> densify_count_;
   std::uint64_t rejected_non_finite_ = 0;

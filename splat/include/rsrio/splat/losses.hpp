@@ -117,6 +117,12 @@ struct ScaleRegulariserOptions {
 double scale_regulariser(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
                          const ScaleRegulariserOptions& options, SceneGradients* gradients);
 
+/// weight * mean over the listed Gaussians' view-return terms of c^2: holds the returns towards
+/// isotropic where the views do not say otherwise. ADDS its gradient into
+/// gradients->view_returns (if not null). An empty list means all Gaussians.
+double view_return_regulariser(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
+                               double weight, SceneGradients* gradients);
+
 extern template class Ssim<float>;
 extern template class Ssim<double>;
 extern template class ImageLoss<float>;

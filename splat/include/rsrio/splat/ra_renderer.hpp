@@ -17,10 +17,13 @@
 //   4. convolved with the DSP point spread (grid.hpp): Sigma_2 = Sigma_aa' + diag(sr^2, sa^2),
 //      exact for Gaussians;
 //   5. drawn as  I[k][a] += A exp(-1/2 d^T Sigma_2^-1 d),  d = (k, a) - mu_a',
-//        A = rho * c * (r_ref / |p|)^n * sqrt(det Sigma_psf / det Sigma_2),
+//        A = rho * v(phi) * c * (r_ref / |p|)^n * sqrt(det Sigma_psf / det Sigma_2),
 //      so a point scatterer peaks at its return ratio rho (energy = rho times the PSF's, for any
 //      extent). n = range_falloff_exponent (0 = none, as RadarSplat; 4 = the radar equation's
-//      1/R^4 in power). Plain sum, no occlusion.
+//      1/R^4 in power). v(phi) = exp(sum_k c_k b_k(phi)) is the Gaussian's view-dependent return
+//      (gaussian_scene.hpp) at the horizontal azimuth phi of R^T p, the direction it is seen
+//      from in the world frame, when view_dependent_return is on (1 otherwise). Plain sum, no
+//      occlusion.
 // Pixels are visited only inside the ellipse d^T Sigma_2^-1 d <= cutoff_sigma^2 (within the
 // cutoff_sigma box, tighter), clipped to the grid and its valid azimuth bins; the Gaussian is
 // evaluated along each row by a multiplicative recurrence (three exp() per row, two
@@ -60,6 +63,11 @@ struct RaRenderOptions {
   // velocity fast (rsrio-splat-bench: 1.025 x the true speed without, 0.977 with the beam, as the
   // DSP's own RA at 0.978). The shipped scenarios' beam: 36 deg (sim::RadarModelOptions).
   double azimuth_gain_sigma_deg = 0.0;
+  // Each Gaussian's return depends on the horizontal direction it is seen from (its view
+  // returns, gaussian_scene.hpp); false: one return for every view (the terms are ignored). A
+  // wall seen head-on returns much more than seen at grazing incidence; a map whose Gaussians
+  // have one return each renders a wall far down a corridor as bright as it was seen across it.
+  bool view_dependent_return = false;
   double min_range_m = 0.1;
   double min_forward_m = 0.0;
 };
