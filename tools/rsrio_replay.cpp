@@ -22,10 +22,15 @@
 // DIR/ground_truth.tum  /ground_truth of the recording (the radar frame in the map), if present,
 //                    interpolated at the stamps of frontend.tum (none across a gap of 0.25 s)
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
+// DIR/frontend_smoothed.tum  with frontend.whole_run_smoother: every state of the run as one batch
+//                    over every factor solved it at the end (the window's frame: not continuous at
+//                    zero-rate updates as frontend.tum is; not causal)
 // With --backend ba also
 // DIR/estimate_final.tum  every frame's pose as the backend's map has it at the end of the run
 //                    (Backend::revised: later BA and loop closures correct earlier poses, and the
-//                    frontend's last accelerometer bias their roll and pitch; not causal)
+//                    frontend's last accelerometer bias their roll and pitch; not causal); with
+//                    frontend.whole_run_smoother the frontend's poses are the batch's (keyframes
+//                    before the end-of-run BA, and every frame), not retilted
 // and the pictures (SPEC Sec. 11):
 // DIR/keyframe_NNNN_ra.png, _rd.png  measured | rendered RA and RD of a few keyframes (--pictures N)
 // DIR/map.png        the Gaussian map from above with the frontend's and the backend's trajectories
@@ -230,12 +235,17 @@ class BaBackend final : public Backend {
   /// Pipelined: waits until the backend has optimised every candidate handed over, then stops its
   /// thread (rethrowing what it failed with). Then the backend's end-of-run BA (its final_ba
   /// options; off by default), which moves estimate_final.tum only.
-  void finish() {
+  /// `smoothed` (the frontend's whole run as one batch, frontend.whole_run_smoother; empty: none)
+  /// replaces the frontend's poses of the keyframes before the end-of-run BA and of every frame in
+  /// final_trajectory().
+  void finish(std::vector<rsrio::rio::SmoothedState> smoothed = {}) {
     if (thread_.joinable()) {
       input_done_.store(true);
       thread_.join();
       rethrow_failure();
     }
+    smoothed_ = std::move(smoothed);
+    if (backend_ && !smoothed_.empty()) backend_->replace_odometry([this](double t) { return smoothed_at(t); });
     if (backend_) backend_->finish();
   }
   rsrio::splat::Backend* backend() { return backend_ ? &*backend_ : nullptr; }
@@ -252,6 +262,10 @@ class BaBackend final : public Backend {
     const auto& frontend = odometry_->options().frontend;
     const gtsam::Vector3 last_bias = frames_.back().accel_bias;
     for (const auto& f : frames_) {
+      if (const std::optional<gtsam::Pose3> smoothed = smoothed_at(f.t)) {
+        out.push_back(stamped(f.t, backend_->revised(f.t, *smoothed) * frontend.body_T_radar));
+        continue;
+      }
       const gtsam::Pose3 odom_T_body =
           f.settled_attitude
               ? rsrio::rio::retilted(rsrio::rio::with_tilt_of(f.odom_T_body, *f.settled_attitude), f.settled_accel_bias,
@@ -315,6 +329,14 @@ class BaBackend final : public Backend {
     gtsam::Vector3 settled_accel_bias = gtsam::Vector3::Zero();
   };
   std::vector<Frame> frames_;  // every frame given
+  std::vector<rsrio::rio::SmoothedState> smoothed_;  // finish()'s, in time order
+  // The smoothed state published at t (to the rounding of the frontend's clock offset).
+  std::optional<gtsam::Pose3> smoothed_at(double t) const {
+    const auto it = std::lower_bound(smoothed_.begin(), smoothed_.end(), t - 1e-6,
+                                     [](const rsrio::rio::SmoothedState& s, double time) { return s.t < time; });
+    if (it == smoothed_.end() || std::abs(it->t - t) >= 1e-6) return std::nullopt;
+    return it->world_T_body;
+  }
   // The frame the settled state was published with: window_states frames back, at its t (to the
   // rounding of the frontend's clock offset added and taken off again).
   void settle(const rsrio::rio::SettledState& s) {
@@ -461,6 +483,9 @@ int main(int argc, char** argv) {
         "--backend-poses constant-velocity needs --backend ba, sequential (the prediction is the backend's own state)");
   if (pipelined && backend_name != "ba")
     return cli.usage_error("--pipelined runs the backend on its own thread: it needs --backend ba");
+  if (options.frontend.whole_run_smoother && (drift || alone))
+    return cli.usage_error("frontend.whole_run_smoother re-solves the frontend's own poses: not with --odometry-drift or "
+                           "--backend-poses constant-velocity");
   if (repeatable && (backend_name != "ba" || pipelined))
     return cli.usage_error(
         "--repeatable needs --backend ba, sequential (on its own thread the backend's corrections reach the frames "
@@ -497,7 +522,8 @@ int main(int argc, char** argv) {
     std::deque<PendingFrame> pending;
     double last_imu_t = -1e300;
     double offset = options.frontend.radar_time_offset_s;
-    rsrio::eval::Trajectory frontend_tum, estimate_tum, ground_truth;
+    rsrio::eval::Trajectory frontend_tum, estimate_tum, ground_truth, frontend_smoothed_tum;
+    double smoother_s = 0;
     rsrio::rio::FrameInfo drifted;  // --odometry-drift: the frame as the drifting frontend gives it
     std::map<std::string, std::uint64_t> rejected, damaged;
     std::vector<double> t_dsp, t_ego, t_frontend, t_total;
@@ -628,13 +654,22 @@ int main(int argc, char** argv) {
     }
     for (auto& f : pending) process(f);
     pending.clear();
-    if (ba != nullptr) ba->finish();  // pipelined: the backend's last keyframes
+    // frontend.whole_run_smoother: the whole run as one batch, for the end of run.
+    std::vector<rsrio::rio::SmoothedState> smoothed;
+    if (options.frontend.whole_run_smoother && odometry) {
+      const auto t0 = std::chrono::steady_clock::now();
+      smoothed = odometry->frontend().smooth_whole_run();
+      smoother_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    for (const auto& s : smoothed) frontend_smoothed_tum.push_back(stamped(s.t, s.world_T_body * options.frontend.body_T_radar));
+    if (ba != nullptr) ba->finish(smoothed);  // pipelined: the backend's last keyframes
     progress(true);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
 
     const auto path = [&](const char* name) { return (std::filesystem::path(out_dir) / name).string(); };
     rsrio::eval::write_tum(path("frontend.tum"), frontend_tum);
     rsrio::eval::write_tum(path("estimate.tum"), estimate_tum);
+    if (!frontend_smoothed_tum.empty()) rsrio::eval::write_tum(path("frontend_smoothed.tum"), frontend_smoothed_tum);
     // The truth where each frame's pose is estimated (the IMU-rate stream interpolated at the
     // frames' stamps), so that nearest-stamp association, rsrio-eval's and evo's, pairs exactly.
     std::vector<double> frame_stamps;
@@ -672,6 +707,7 @@ int main(int argc, char** argv) {
        << "  \"repeatable\": " << (repeatable ? "true" : "false") << ",\n"
        << "  \"odometry_drift\": " << (drift_text.empty() ? "null" : json_string(drift_text)) << ",\n"
        << "  \"waited_for_backend_s\": " << (ba != nullptr ? ba->waited_s : 0.0) << ",\n"
+       << "  \"whole_run_smoother_s\": " << smoother_s << ",\n"
        << "  \"frames\": " << frames << ",\n"
        << "  \"states\": " << states << ",\n"
        << "  \"frames_with_radar_factor\": " << radar_used << ",\n"

@@ -62,6 +62,10 @@ int main(int argc, char** argv) {
           radar_given = true;
         }
         estimator = rsrio::load_estimator_options(root);
+        // A batch over the whole run keeps every factor: a daemon's memory would grow without bound.
+        if (estimator.odometry.frontend.whole_run_smoother)
+          throw rsrio::ConfigError(root.file(), "frontend.whole_run_smoother",
+                                   "false in rsriod (the whole run as one batch is rsrio-replay's end of run)");
       }))
     return *rc;
   rsrio::rio::OdometryOptions& stage = estimator.odometry;

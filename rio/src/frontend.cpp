@@ -113,13 +113,17 @@ bool RioFrontend::initialise(double t, const EgoVelocity& ego) {
   values_.insert(B(k), gtsam::imuBias::ConstantBias());
   gtsam::Vector6 pose_sigmas;
   pose_sigmas << gtsam::Vector3::Constant(options_.prior_rotation_sigma), gtsam::Vector3::Constant(options_.prior_position_sigma);
-  graph_.addPrior(X(k), pose, gtsam::noiseModel::Diagonal::Sigmas(pose_sigmas));
-  graph_.addPrior(V(k), v_world, gtsam::noiseModel::Isotropic::Sigma(3, options_.prior_velocity_sigma));
+  add_factor(boost::make_shared<gtsam::PriorFactor<gtsam::Pose3>>(X(k), pose,
+                                                                  gtsam::noiseModel::Diagonal::Sigmas(pose_sigmas)));
+  add_factor(boost::make_shared<gtsam::PriorFactor<gtsam::Vector3>>(
+      V(k), v_world, gtsam::noiseModel::Isotropic::Sigma(3, options_.prior_velocity_sigma)));
   gtsam::Vector6 bias_sigmas;
   bias_sigmas << gtsam::Vector3::Constant(options_.prior_accel_bias_sigma),
       gtsam::Vector3::Constant(options_.prior_gyro_bias_sigma);
-  graph_.addPrior(B(k), gtsam::imuBias::ConstantBias(), gtsam::noiseModel::Diagonal::Sigmas(bias_sigmas));
+  add_factor(boost::make_shared<gtsam::PriorFactor<gtsam::imuBias::ConstantBias>>(
+      B(k), gtsam::imuBias::ConstantBias(), gtsam::noiseModel::Diagonal::Sigmas(bias_sigmas)));
   window_.emplace_back(k, t);
+  if (options_.whole_run_smoother) whole_times_.emplace_back(k, t - options_.radar_time_offset_s);
   add_radar_factor(k, t, ego);
   return true;
 }
@@ -132,7 +136,8 @@ void RioFrontend::add_radar_factor(std::uint64_t k, double t, const EgoVelocity&
   const double s2 = options_.radar_velocity_sigma_scale * options_.radar_velocity_sigma_scale;
   auto gaussian = gtsam::noiseModel::Gaussian::Covariance(ego.covariance * s2 + gtsam::I_3x3 * 1e-6);
   auto robust = gtsam::noiseModel::Robust::Create(gtsam::noiseModel::mEstimator::Huber::Create(options_.huber_k), gaussian);
-  graph_.emplace_shared<RadarVelocityFactor>(X(k), V(k), B(k), ego.velocity, gyro_at(t), options_.body_T_radar, robust);
+  add_factor(boost::make_shared<RadarVelocityFactor>(X(k), V(k), B(k), ego.velocity, gyro_at(t), options_.body_T_radar,
+                                                     robust));
 }
 
 void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, const EgoVelocity& ego) {
@@ -166,8 +171,8 @@ void RioFrontend::add_zero_rate_factor(std::uint64_t k, double t0, double t1, co
   gtsam::Vector6 sigmas;
   sigmas << gtsam::Vector3::Constant(1e3), gtsam::Vector3::Constant(sg);  // accel part: unconstrained
   const auto b_mid = values_.at<gtsam::imuBias::ConstantBias>(B(mid.k));
-  graph_.addPrior(B(mid.k), gtsam::imuBias::ConstantBias(b_mid.accelerometer(), mid.mean),
-                  gtsam::noiseModel::Diagonal::Sigmas(sigmas));
+  add_factor(boost::make_shared<gtsam::PriorFactor<gtsam::imuBias::ConstantBias>>(
+      B(mid.k), gtsam::imuBias::ConstantBias(b_mid.accelerometer(), mid.mean), gtsam::noiseModel::Diagonal::Sigmas(sigmas)));
   ++zero_rate_updates_;
 }
 
@@ -187,8 +192,32 @@ void RioFrontend::marginalise_oldest() {
   for (const auto& gf : *marginal)
     if (gf) kept.push_back(boost::make_shared<gtsam::LinearContainerFactor>(gf, values_));
   graph_ = kept;
+  if (options_.whole_run_smoother)
+    for (gtsam::Key key : old) whole_values_.insert(key, values_.at(key));
   for (gtsam::Key key : old) values_.erase(key);
   window_.pop_front();
+}
+
+void RioFrontend::add_factor(const gtsam::NonlinearFactor::shared_ptr& factor) {
+  graph_.push_back(factor);
+  if (options_.whole_run_smoother) whole_graph_.push_back(factor);
+}
+
+std::vector<SmoothedState> RioFrontend::smooth_whole_run(int max_iterations) const {
+  std::vector<SmoothedState> out;
+  if (!options_.whole_run_smoother || whole_times_.empty()) return out;
+  // The states that left the window at their estimate then, the window's at today's.
+  gtsam::Values initial = whole_values_;
+  initial.insert(values_);
+  gtsam::LevenbergMarquardtParams lm;
+  lm.setMaxIterations(max_iterations);
+  lm.setVerbosityLM("SILENT");
+  const gtsam::Values solved = gtsam::LevenbergMarquardtOptimizer(whole_graph_, initial, lm).optimize();
+  out.reserve(whole_times_.size());
+  for (const auto& [k, t] : whole_times_)
+    out.push_back({t, solved.at<gtsam::Pose3>(X(k)), solved.at<gtsam::Vector3>(V(k)),
+                   solved.at<gtsam::imuBias::ConstantBias>(B(k))});
+  return out;
 }
 
 FrontendState RioFrontend::state(std::uint64_t k, double t_radar, bool radar_used) {
@@ -246,8 +275,9 @@ std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVel
   values_.insert(X(k), predicted.pose());
   values_.insert(V(k), predicted.v());
   values_.insert(B(k), bias_prev);
-  graph_.emplace_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim);
+  add_factor(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
   window_.emplace_back(k, t);
+  if (options_.whole_run_smoother) whole_times_.emplace_back(k, t - options_.radar_time_offset_s);
   add_radar_factor(k, t, ego);
   add_zero_rate_factor(k, t_prev, t, ego);
 

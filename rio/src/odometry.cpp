@@ -88,6 +88,7 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   f.read("still_neighbours", fo.still_neighbours, {1, 100});
   f.read("continuous_odometry", fo.continuous_odometry);
   f.read("position_from_velocity", fo.position_from_velocity);
+  f.read("whole_run_smoother", fo.whole_run_smoother);
   f.read("window_states", fo.window_states, {2, 1000});
   f.read("lm_max_iterations", fo.lm_max_iterations, {1, 1000});
   f.read("prior_rotation_sigma", fo.prior_rotation_sigma, {1e-9, 10.0});
@@ -147,6 +148,7 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  still_neighbours: " << f.still_neighbours << "\n"
       << "  continuous_odometry: " << b(f.continuous_odometry) << "\n"
       << "  position_from_velocity: " << b(f.position_from_velocity) << "\n"
+      << "  whole_run_smoother: " << b(f.whole_run_smoother) << "\n"
       << "  window_states: " << f.window_states << "\n"
       << "  lm_max_iterations: " << f.lm_max_iterations << "\n"
       << "  prior_rotation_sigma: " << f.prior_rotation_sigma << "\n"

@@ -177,6 +177,7 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.still_neighbours == d.frontend.still_neighbours);
   CHECK(o.frontend.continuous_odometry == d.frontend.continuous_odometry);
   CHECK(o.frontend.position_from_velocity == d.frontend.position_from_velocity);
+  CHECK(o.frontend.whole_run_smoother == d.frontend.whole_run_smoother);
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);
@@ -208,6 +209,11 @@ TEST_CASE("dropping the points of ambiguous azimuth loads, prints back, and a wr
 TEST_CASE("positions from the velocities load, print back, and a wrong value names its key", "[odometry]") {
   check_flag_option("frontend", "position_from_velocity", "2",
                     [](OdometryOptions& o) -> bool& { return o.frontend.position_from_velocity; });
+}
+
+TEST_CASE("the whole-run smoother loads, prints back, and a wrong value names its key", "[odometry]") {
+  check_flag_option("frontend", "whole_run_smoother", "yes please",
+                    [](OdometryOptions& o) -> bool& { return o.frontend.whole_run_smoother; });
 }
 
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {

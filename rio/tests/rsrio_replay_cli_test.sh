@@ -121,6 +121,25 @@ cmp -s "$tmp/rep1/estimate.tum" "$tmp/rep1/frontend.tum" && bad "repeatable: the
 check "repeatable without ba" 2 "--repeatable needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --repeatable
 check "repeatable pipelined" 2 "--repeatable needs --backend ba, sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" \
   --backend ba --pipelined --repeatable
+# frontend.whole_run_smoother: the whole run solved as one batch at its end, its poses in
+# frontend_smoothed.tum (one per frame, at the frames' stamps) and under the end-of-run trajectory.
+# Repeatable, against rep1 (the same options without it).
+sed 's/^  whole_run_smoother: false/  whole_run_smoother: true/' "$tmp/tiny_budget.yaml" > "$tmp/tiny_smooth.yaml"
+check "whole-run smoother" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/smooth" --config "$tmp/tiny_smooth.yaml" \
+  --backend ba --pictures 0 --repeatable
+cmp -s <(cut -d' ' -f1 "$tmp/smooth/frontend.tum") <(cut -d' ' -f1 "$tmp/smooth/frontend_smoothed.tum") \
+  && ok "smoother: one pose per frame at its stamp" || bad "smoother: frontend_smoothed.tum's stamps are not frontend.tum's"
+cmp -s "$tmp/smooth/frontend.tum" "$tmp/rep1/frontend.tum" && cmp -s "$tmp/smooth/estimate.tum" "$tmp/rep1/estimate.tum" \
+  && ok "smoother: what is published is unchanged" || bad "smoother: the published poses changed"
+cmp -s "$tmp/smooth/estimate_final.tum" "$tmp/rep1/estimate_final.tum" && bad "smoother: the end of run is unchanged" \
+  || ok "smoother: the end of run follows it"
+[ -e "$tmp/rep1/frontend_smoothed.tum" ] && bad "smoother: frontend_smoothed.tum without the option" || ok "smoother: off by default"
+grep -q '"whole_run_smoother_s": [0-9]' "$tmp/smooth/stats.json" && ok "stats: whole_run_smoother_s" || bad "stats.json lacks whole_run_smoother_s"
+out=$("$eval" --gt "$tmp/smooth/ground_truth.tum" --est "$tmp/smooth/frontend_smoothed.tum" 2>&1)
+ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
+awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.05) }' && ok "smoother: APE $ape m < 0.05 m" || { bad "smoother: APE '$ape' m"; echo "$out"; }
+check "smoother with drift" 2 "whole_run_smoother" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --config "$tmp/tiny_smooth.yaml" \
+  --backend ba --odometry-drift 0,0.1
 # rsrio-eval --ablation on a recording put where it looks for sequence 1: only the rows asked for
 # are replayed and printed (each into its own directory), an unknown row is a usage error.
 mkdir -p "$tmp/data" && cp "$tmp/rec.mcap" "$tmp/data/seq1_meeting_room.mcap"

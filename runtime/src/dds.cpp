@@ -119,4 +119,9 @@ dds::DataReader* DdsParticipant::make_reader(const std::string& topic_name, dds:
   return r;
 }
 
+void DdsParticipant::delete_reader(dds::DataReader* reader) {
+  if (reader != nullptr && subscriber_->delete_datareader(reader) != dds::RETCODE_OK)
+    throw std::runtime_error("Fast DDS could not delete a reader");
+}
+
 }  // namespace rsrio

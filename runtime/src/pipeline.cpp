@@ -604,6 +604,16 @@ Pipeline::Pipeline(const DaemonOptions& options, const RadarConfig& radar, const
 Pipeline::~Pipeline() {
   request_stop();
   stop();
+  // The IMU reader's listener is impl_, which goes with this; the participant stays (its owner's).
+  // Fast DDS calls on_data_available from its own threads until the reader is deleted: a sample
+  // arriving during shutdown would otherwise lock a mutex being destroyed (the thread sanitizer's
+  // run of the fault test, 2026-12-06).
+  try {
+    impl_->dds.delete_reader(impl_->imu_reader);
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+  }
+  impl_->imu_reader = nullptr;
 }
 
 void Pipeline::on_pose(std::function<void(const PoseOutput&)> callback) { impl_->pose_callback = std::move(callback); }

@@ -21,6 +21,12 @@ fail() { echo "FAIL: $*"; for f in "$out"/*.log; do echo "--- $f"; tail -n 30 "$
 "$helpers/rsrio-sim" --scenario scenarios/test_tiny.yaml --out "$out/tiny.mcap" >"$out/sim.log" 2>&1 || fail "rsrio-sim"
 # test_tiny's rig: the radar is yawed 2 degrees on the rig.
 sed 's/^  radar_rpy_deg: .*/  radar_rpy_deg: [0.0, 0.0, 2.0]/' config/rsrio.yaml >"$out/tiny.yaml"
+# The replay's whole-run smoother keeps every factor of the run: the daemon refuses it, naming the key.
+sed 's/^  whole_run_smoother: false/  whole_run_smoother: true/' "$out/tiny.yaml" >"$out/smoother.yaml"
+rc=0; "$bin/rsriod" --source "recording:$out/tiny.mcap" --imu-source recording --domain "$domain" \
+  --config "$out/smoother.yaml" >"$out/smoother.out" 2>&1 || rc=$?
+[ "$rc" = 2 ] && grep -q "frontend.whole_run_smoother" "$out/smoother.out" \
+  || fail "rsriod with frontend.whole_run_smoother: exit $rc, not 2 naming the key"
 
 "$bin/rsrio-echo" --domain "$domain" --quiet --status --tum "$out/echo.tum" --duration 60 >"$out/echo.log" 2>&1 &
 echo_pid=$!

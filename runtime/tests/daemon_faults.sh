@@ -11,8 +11,13 @@
 #  5. SIGTERM: exit 0.
 # Addresses of its own (127.0.0.5 board, 127.0.0.6 host) so that it can run beside other tests.
 # usage: daemon_faults.sh BIN_DIR OUT_DIR
+# rsriod and rsrio-echo from BIN_DIR; the board emulator from RSRIO_HELPER_BIN_DIR when set (the
+# sanitizer builds use the release build's: the board is not under test, and an instrumented one
+# may not keep its 100 ms frame period on 2 cores).
 set -euo pipefail
 bin=$1 out=$2
+helpers=${RSRIO_HELPER_BIN_DIR:-$bin}
+[ -x "$helpers/rsrio-dca1000-emu" ] || { echo "FAIL: $helpers/rsrio-dca1000-emu missing (build the release preset first: ./rsrio build)"; exit 1; }
 mkdir -p "$out"
 domain=$((150 + ($$ + 40) % 80))
 pids=()
@@ -27,7 +32,7 @@ wait_for() { # pattern seconds
 }
 emulator() { # log loss [emulator options...]
   local log=$1 loss=$2; shift 2
-  "$bin/rsrio-dca1000-emu" --scenario scenarios/demo_meeting_room.yaml --address 127.0.0.5 --host-data 127.0.0.6:4098 \
+  "$helpers/rsrio-dca1000-emu" --scenario scenarios/demo_meeting_room.yaml --address 127.0.0.5 --host-data 127.0.0.6:4098 \
     --loss "$loss" --seed 7 --once --imu-topic /imu --domain "$domain" "$@" >"$out/$log" 2>&1 &
   emu=$!
   pids+=($emu)

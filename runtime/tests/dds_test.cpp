@@ -4,12 +4,10 @@
 #include <chrono>
 #include <thread>
 
-#include <unistd.h>
-
 #include <catch2/catch_test_macros.hpp>
-#include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "dds_test_support.hpp"
 #include "geometry_msgs/msg/PoseStampedPubSubTypes.hpp"
 #include "nav_msgs/msg/OdometryPubSubTypes.hpp"
 
@@ -17,14 +15,9 @@ namespace fdds = eprosima::fastdds::dds;
 
 namespace {
 
-// A domain of this process's own, so parallel test processes do not see each other.
-int test_domain() { return 100 + static_cast<int>(::getpid() % 100); }
-
 bool wait_matched(fdds::DataWriter* w, int count = 1) {
   for (int i = 0; i < 200; ++i) {
-    fdds::PublicationMatchedStatus s;
-    w->get_publication_matched_status(s);
-    if (s.current_count >= count) return true;
+    if (rsrio::testing::matched_readers(w) >= count) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
   return false;
@@ -63,12 +56,8 @@ TEST_CASE("ROS 2 type names come out of fastddsgen -typeros2", "[dds]") {
 }
 
 TEST_CASE("Odometry published on loopback is read back intact by another participant", "[dds]") {
-  rsrio::DdsOptions opt;
-  opt.domain_id = test_domain();
-  opt.participant_name = "dds_test_writer";
-  rsrio::DdsParticipant writer_side(opt);
-  opt.participant_name = "dds_test_reader";
-  rsrio::DdsParticipant reader_side(opt);
+  rsrio::DdsParticipant writer_side(rsrio::testing::loopback_options("dds_test_writer"));
+  rsrio::DdsParticipant reader_side(rsrio::testing::loopback_options("dds_test_reader"));
 
   const std::string topic = "rt/rsrio/test_odom";
   auto* writer = writer_side.make_writer(topic, fdds::TypeSupport(new nav_msgs::msg::OdometryPubSubType()),
@@ -93,8 +82,7 @@ TEST_CASE("Odometry published on loopback is read back intact by another partici
 }
 
 TEST_CASE("latched QoS gives a late subscriber the last sample", "[dds]") {
-  rsrio::DdsOptions opt;
-  opt.domain_id = test_domain();
+  const rsrio::DdsOptions opt = rsrio::testing::loopback_options("dds_test");
   rsrio::DdsParticipant writer_side(opt);
   const std::string topic = "rt/rsrio/test_latched_pose";
   auto* writer = writer_side.make_writer(topic, fdds::TypeSupport(new geometry_msgs::msg::PoseStampedPubSubType()),

@@ -5,13 +5,12 @@
 #include <chrono>
 #include <thread>
 
-#include <unistd.h>
-
 #include <catch2/catch_test_macros.hpp>
 #include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
 #include <fastdds/dds/subscriber/DataReader.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 
+#include "dds_test_support.hpp"
 #include "geometry_msgs/msg/PoseStampedPubSubTypes.hpp"
 #include "nav_msgs/msg/OdometryPubSubTypes.hpp"
 #include "rsrio_msgs/msg/StatusPubSubTypes.hpp"
@@ -54,8 +53,7 @@ TEST_CASE("odometry message: REP-105 frames, stamp split, covariance passed in R
 }
 
 TEST_CASE("published odometry, pose and status reach a separate participant", "[publisher][dds]") {
-  rsrio::DdsOptions opt;
-  opt.domain_id = 100 + static_cast<int>(::getpid() % 100);
+  const rsrio::DdsOptions opt = rsrio::testing::loopback_options("odometry_publisher_test");
   rsrio::DdsParticipant daemon_side(opt);
   rsrio::DdsParticipant node_side(opt);
   rsrio::PublisherOptions o;

@@ -77,10 +77,13 @@ double median_ms(int reps, const std::function<void()>& f) {
 // renderers' elevation gain and beam: the two-way power's sigma in sin(elevation).
 const double kSimulatorElevationGain = rsrio::sim::RadarModelOptions{}.elevation_power_sigma_sin();
 
+// With (zero) view returns, which the RA+v columns read; the other renders ignore them.
 GaussianScene make_scene(int n, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  GaussianScene scene;
+  SceneOptions options;
+  options.view_returns = true;
+  GaussianScene scene(options);
   for (int i = 0; i < n; ++i) {
     const double r = 1.0 + 16.0 * u(rng);
     const double az = (2 * u(rng) - 1) * 75.0 * std::numbers::pi / 180.0;
@@ -104,7 +107,7 @@ void run(const char* type, const RadarImageGrid& grid, const GaussianScene& scen
   const Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   Image<Scalar> ra, rd, grad_ra, grad_rd, target_ra, target_rd;
   SceneGradients grads;
-  grads.reset(scene.size());
+  grads.reset(scene.size(), scene.has_view_returns());
   Vector6d grad_pose = Vector6d::Zero();
   const Eigen::Vector3d velocity(0.8, 0.2, 0);
   RenderStats stats = ra_renderer.render(scene, pose, ra);

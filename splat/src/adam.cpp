@@ -114,13 +114,17 @@ bool SplatAdam::step(const Step& s) {
     throw std::invalid_argument("SplatAdam::step: gradients are not sized to the scene");
   if (s.poses.size() != s.pose_gradients.size())
     throw std::invalid_argument("SplatAdam::step: pose parameters and gradients differ in size");
+  const bool view = view_returns.learning_rate() > 0;
+  if (scene_on && view &&
+      (!s.scene->has_view_returns() || s.scene_gradients->view_returns.size() != kViewTerms * s.scene->size()))
+    throw std::invalid_argument("SplatAdam::step: lr_view_returns > 0 for a scene or gradients without view returns");
   // ---- NaN guard: every gradient this step would use.
   bool finite = finite_rows(s.pose_gradients, poses.stride(), s.pose_rows);
   if (scene_on && finite) {
     const SceneGradients& g = *s.scene_gradients;
     finite = finite_rows(g.means, 3, s.gaussians) && finite_rows(g.rotations, 4, s.gaussians) &&
              finite_rows(g.log_scales, 3, s.gaussians) && finite_rows(g.log_returns, 1, s.gaussians) &&
-             (!(view_returns.learning_rate() > 0) || finite_rows(g.view_returns, kViewTerms, s.gaussians));
+             (!view || finite_rows(g.view_returns, kViewTerms, s.gaussians));
   }
   if (!finite) {
     ++skipped_;
@@ -136,7 +140,6 @@ bool SplatAdam::step(const Step& s) {
   rotations.step(scene.mutable_rotations(), g.rotations, s.gaussians, o);
   log_scales.step(scene.mutable_log_scales(), g.log_scales, s.gaussians, o);
   log_returns.step(scene.mutable_log_returns(), g.log_returns, s.gaussians, o);
-  const bool view = view_returns.learning_rate() > 0;
   if (view) view_returns.step(scene.mutable_view_returns(), g.view_returns, s.gaussians, o);
   // Keep exp() of the updated values finite (the full check is GaussianScene::sanitize()).
   const SceneOptions& so = scene.options();

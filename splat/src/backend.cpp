@@ -439,6 +439,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
   }
   SceneOptions so;
   so.max_gaussians = static_cast<std::size_t>(options_.max_gaussians);
+  so.view_returns = options_.view_dependent_return;
   scene_ = GaussianScene(so);
   SplatAdamOptions ao;
   ao.lr_means = options_.lr_means;
@@ -459,6 +460,24 @@ Eigen::Isometry3d OdomCorrection::apply(const Eigen::Isometry3d& odom_T_body) co
 }
 
 gtsam::Pose3 Backend::map_T_odom() const { return to_pose3(correction_.map_T_odom); }
+
+std::size_t Backend::replace_odometry(const std::function<std::optional<gtsam::Pose3>(double t)>& odom_at) {
+  std::size_t replaced = 0;
+  const Eigen::Isometry3d radar_T_body = options_.body_T_radar.inverse();
+  for (Keyframe& kf : keyframes_)
+    if (const std::optional<gtsam::Pose3> pose = odom_at(kf.t); pose && pose->matrix().allFinite()) {
+      kf.odom_T_body = to_isometry(*pose);
+      // Roll and pitch are the frontend's (3-DoF; 6-DoF: where the end-of-run BA starts them and
+      // what its prior holds them to): the new odometry's tilt on the keyframe's map pose, its
+      // heading and the body's position kept. Else the corrections (correction_at) would carry the
+      // old tilt of the keyframe onto every frame after it.
+      const gtsam::Pose3 world_T_body = to_pose3(kf.world_T_radar * radar_T_body);
+      kf.world_T_radar = to_isometry(rio::with_tilt_of(world_T_body, pose->rotation())) * options_.body_T_radar;
+      ++replaced;
+    }
+  if (!keyframes_.empty()) update_correction();
+  return replaced;
+}
 
 void Backend::finish() {
   if (options_.final_ba.max_iterations <= 0 || keyframes_.size() < 2) return;
@@ -843,7 +862,7 @@ void Backend::run_stage(const std::vector<std::size_t>& views, const std::vector
 
   // Sized for the scene once a stage (its structure changes between stages); each iteration
   // zeroes the rows it uses.
-  if (optimise_scene && gradients_.size() != scene_.size()) gradients_.reset(scene_.size());
+  if (optimise_scene && gradients_.size() != scene_.size()) gradients_.reset(scene_.size(), scene_.has_view_returns());
 
   ScaleRegulariserOptions reg;
   reg.max_scale_m = options_.scale_regulariser_max_m;

@@ -29,12 +29,12 @@ std::uint64_t cell_hash(std::int64_t ix, std::int64_t iy, std::int64_t iz) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-void SceneGradients::reset(std::size_t n) {
+void SceneGradients::reset(std::size_t n, bool with_view_returns) {
   means.assign(3 * n, 0.0);
   rotations.assign(4 * n, 0.0);
   log_scales.assign(3 * n, 0.0);
   log_returns.assign(n, 0.0);
-  view_returns.assign(kViewTerms * n, 0.0);
+  view_returns.assign(with_view_returns ? kViewTerms * n : 0, 0.0);
   image_mean_grad_norm.assign(n, 0.0);
   visible_count.assign(n, 0);
 }
@@ -53,7 +53,7 @@ void SceneGradients::zero_rows(std::span<const std::uint32_t> rows) {
     std::fill_n(&rotations[4 * i], 4, 0.0);
     std::fill_n(&log_scales[3 * i], 3, 0.0);
     log_returns[i] = 0;
-    std::fill_n(&view_returns[kViewTerms * i], kViewTerms, 0.0);
+    if (!view_returns.empty()) std::fill_n(&view_returns[kViewTerms * i], kViewTerms, 0.0);
     image_mean_grad_norm[i] = 0;
     visible_count[i] = 0;
   }
@@ -63,11 +63,13 @@ bool SceneGradients::all_finite(std::span<const std::uint32_t> rows) const {
   auto ok = [](const double* v, int n) { return std::all_of(v, v + n, [](double x) { return std::isfinite(x); }); };
   return std::all_of(rows.begin(), rows.end(), [&](std::uint32_t i) {
     return ok(&means[3 * i], 3) && ok(&rotations[4 * i], 4) && ok(&log_scales[3 * i], 3) && ok(&log_returns[i], 1) &&
-           ok(&view_returns[kViewTerms * i], kViewTerms) && ok(&image_mean_grad_norm[i], 1);
+           (view_returns.empty() || ok(&view_returns[kViewTerms * i], kViewTerms)) && ok(&image_mean_grad_norm[i], 1);
   });
 }
 
 void SceneGradients::add(const SceneGradients& other) {
+  if (other.size() != size() || other.view_returns.size() != view_returns.size())
+    throw std::invalid_argument("SceneGradients::add: the two are not laid out alike");
   auto acc = [](std::vector<double>& a, const std::vector<double>& b) {
     for (std::size_t k = 0; k < a.size(); ++k) a[k] += b[k];
   };
@@ -105,10 +107,12 @@ void GaussianScene::push_raw(const double* mean, const double* rotation, const d
   rotations_.insert(rotations_.end(), rotation, rotation + 4);
   log_scales_.insert(log_scales_.end(), log_scale, log_scale + 3);
   log_returns_.push_back(log_return);
-  if (view != nullptr)
-    view_returns_.insert(view_returns_.end(), view, view + kViewTerms);
-  else
-    view_returns_.resize(view_returns_.size() + kViewTerms, 0.0);
+  if (options_.view_returns) {
+    if (view != nullptr)
+      view_returns_.insert(view_returns_.end(), view, view + kViewTerms);
+    else
+      view_returns_.resize(view_returns_.size() + kViewTerms, 0.0);
+  }
   densify_grad_accum_.push_back(0.0);
   densify_count_.push_back(0);
   index_stale_ = true;
@@ -192,7 +196,8 @@ SceneRemap GaussianScene::compact(const std::vector<char>& keep) {
       std::copy_n(&rotations_[4 * i], 4, &rotations_[4 * w]);
       std::copy_n(&log_scales_[3 * i], 3, &log_scales_[3 * w]);
       log_returns_[w] = log_returns_[i];
-      std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, &view_returns_[kViewTerms * w]);
+      if (options_.view_returns)
+        std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, &view_returns_[kViewTerms * w]);
       densify_grad_accum_[w] = densify_grad_accum_[i];
       densify_count_[w] = densify_count_[i];
     }
@@ -203,7 +208,7 @@ SceneRemap GaussianScene::compact(const std::vector<char>& keep) {
   rotations_.resize(4 * w);
   log_scales_.resize(3 * w);
   log_returns_.resize(w);
-  view_returns_.resize(kViewTerms * w);
+  if (options_.view_returns) view_returns_.resize(kViewTerms * w);
   densify_grad_accum_.resize(w);
   densify_count_.resize(w);
   index_stale_ = true;
@@ -252,8 +257,8 @@ SceneRemap GaussianScene::densify(const Eigen::Vector3d& eviction_center) {
     double child_ls[3] = {ls[0], ls[1], ls[2]};
     const double child_log_return = log_returns_[i] - log2;
     // A copy: push_raw may reallocate the block the parent's terms live in.
-    double view[kViewTerms];
-    std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, view);
+    double view[kViewTerms] = {};
+    if (options_.view_returns) std::copy_n(&view_returns_[kViewTerms * i], kViewTerms, view);
     if (ls[major] > log_split_scale) {
       for (double& v : child_ls) v -= log_divisor;
       for (int c = 0; c < 2; ++c) {
@@ -301,7 +306,8 @@ SceneRemap GaussianScene::sanitize() {
   for (std::size_t i = 0; i < size(); ++i) {
     double* q = &rotations_[4 * i];
     if (!finite_all(&means_[3 * i], 3) || !finite_all(q, 4) || !finite_all(&log_scales_[3 * i], 3) ||
-        !std::isfinite(log_returns_[i]) || !finite_all(&view_returns_[kViewTerms * i], kViewTerms)) {
+        !std::isfinite(log_returns_[i]) ||
+        (options_.view_returns && !finite_all(&view_returns_[kViewTerms * i], kViewTerms))) {
       keep[i] = 0;
       ++removed_non_finite_;
       continue;
@@ -318,9 +324,10 @@ SceneRemap GaussianScene::sanitize() {
     for (int k = 0; k < 3; ++k)
       log_scales_[3 * i + k] = std::clamp(log_scales_[3 * i + k], options_.min_log_scale, options_.max_log_scale);
     log_returns_[i] = std::clamp(log_returns_[i], options_.min_log_return, options_.max_log_return);
-    for (std::size_t k = 0; k < kViewTerms; ++k)
-      view_returns_[kViewTerms * i + k] =
-          std::clamp(view_returns_[kViewTerms * i + k], -options_.max_view_return, options_.max_view_return);
+    if (options_.view_returns)
+      for (std::size_t k = 0; k < kViewTerms; ++k)
+        view_returns_[kViewTerms * i + k] =
+            std::clamp(view_returns_[kViewTerms * i + k], -options_.max_view_return, options_.max_view_return);
   }
   return compact(keep);
 }

@@ -282,6 +282,9 @@ double scale_regulariser(const GaussianScene& scene, std::span<const std::uint32
 
 double view_return_regulariser(const GaussianScene& scene, std::span<const std::uint32_t> gaussians,
                                double weight, SceneGradients* gradients) {
+  if (!scene.has_view_returns()) return 0.0;  // no terms to hold
+  if (gradients != nullptr && gradients->view_returns.size() != scene.view_returns().size())
+    throw std::invalid_argument("view_return_regulariser: gradients have no view returns' block");
   const std::size_t n = gaussians.empty() ? scene.size() : gaussians.size();
   if (n == 0 || weight == 0) return 0.0;
   const double factor = weight / static_cast<double>(kViewTerms * n);

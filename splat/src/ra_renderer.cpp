@@ -306,7 +306,11 @@ bool walk_rows(const Projection& g, double cutoff, int rows, int first_a, int la
   return any;
 }
 
-Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o) {
+// The scene's view returns are read only when the options use them, and a scene keeps them only
+// when made to (SceneOptions::view_returns): refuse the pair that would read past its storage.
+Context make_context(const RadarImageGrid& grid, const RaRenderOptions& o, const GaussianScene& scene) {
+  if (o.view_dependent_return && !scene.has_view_returns())
+    throw std::invalid_argument("RaRenderer: view_dependent_return needs a scene with view returns (SceneOptions::view_returns)");
   Context c;
   c.inv_range_bin = 1.0 / grid.range_bin_m;
   c.inv_azimuth_step = 1.0 / grid.azimuth_sin_step();
@@ -369,7 +373,7 @@ void RaRenderer<Scalar>::for_each(const GaussianScene& scene, const std::span<co
 template <typename Scalar>
 GaussianFootprint RaRenderer<Scalar>::footprint(const GaussianScene& scene, std::size_t i,
                                                 const Eigen::Isometry3d& radar_T_world) const {
-  const Context ctx = make_context(grid_, options_);
+  const Context ctx = make_context(grid_, options_, scene);
   Projection g;
   project(scene, i, radar_T_world.linear(), radar_T_world.translation(), ctx, g);
   GaussianFootprint f;
@@ -398,7 +402,7 @@ template <typename Scalar>
 template <typename Pixel>
 RenderStats RaRenderer<Scalar>::draw(const GaussianScene& scene, const Eigen::Isometry3d& radar_T_world,
                                      const std::span<const std::uint32_t>* gaussians, Pixel&& pixel) const {
-  const Context ctx = make_context(grid_, options_);
+  const Context ctx = make_context(grid_, options_, scene);
   const Eigen::Matrix3d r_tw = radar_T_world.linear();
   const Eigen::Vector3d t_tw = radar_T_world.translation();
   const int cols = grid_.azimuth_bins;
@@ -494,7 +498,9 @@ void RaRenderer<Scalar>::backward_impl(const GaussianScene& scene, const Eigen::
     throw std::invalid_argument("RaRenderer::backward: gradient image has the wrong shape");
   if (gradients != nullptr && gradients->size() != scene.size())
     throw std::invalid_argument("RaRenderer::backward: gradients are not sized to the scene");
-  const Context ctx = make_context(grid_, options_);
+  if (gradients != nullptr && options_.view_dependent_return && gradients->view_returns.size() != kViewTerms * scene.size())
+    throw std::invalid_argument("RaRenderer::backward: gradients have no view returns' block");
+  const Context ctx = make_context(grid_, options_, scene);
   const Eigen::Matrix3d r_tw = radar_T_world.linear();
   const Eigen::Vector3d t_tw = radar_T_world.translation();
   const int cols = grid_.azimuth_bins;

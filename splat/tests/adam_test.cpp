@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "rsrio/splat/adam.hpp"
 
@@ -51,7 +52,7 @@ TEST_CASE("SplatAdam: the NaN guard skips and counts a step with a non-finite gr
   scene.add(Eigen::Vector3d(4, 5, 6), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(-2), 0.0);
   SplatAdam adam(SplatAdamOptions{}, 3);
   SceneGradients g;
-  g.reset(scene.size());
+  g.reset(scene.size(), scene.has_view_returns());
   std::fill(g.means.begin(), g.means.end(), 1.0);
   g.log_returns[1] = std::numeric_limits<double>::quiet_NaN();
   std::vector<double> pose = {0, 0, 0}, pose_grad = {1, 1, 1};
@@ -81,10 +82,12 @@ TEST_CASE("SplatAdam: the NaN guard skips and counts a step with a non-finite gr
 
 TEST_CASE("SplatAdam: the view returns are stepped, guarded and clamped only when they have a rate",
           "[splat][adam]") {
-  GaussianScene scene;
+  SceneOptions scene_options;
+  scene_options.view_returns = true;
+  GaussianScene scene(scene_options);
   scene.add(Eigen::Vector3d(1, 2, 3), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(-2), 0.0);
   SceneGradients g;
-  g.reset(scene.size());
+  g.reset(scene.size(), scene.has_view_returns());
   std::fill(g.view_returns.begin(), g.view_returns.end(), 1.0);
   SplatAdam::Step step;
   step.scene = &scene;
@@ -112,4 +115,16 @@ TEST_CASE("SplatAdam: the view returns are stepped, guarded and clamped only whe
   // A structure change carries the moments with the Gaussians.
   on.remap_scene(SceneRemap{-1, 0});
   CHECK(on.view_returns.rows() == 2);
+
+  // A scene made without view returns has nothing for a rate to step: refused, not read past.
+  GaussianScene plain;
+  plain.add(Eigen::Vector3d(1, 2, 3), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(-2), 0.0);
+  SceneGradients pg;
+  pg.reset(plain.size(), plain.has_view_returns());
+  CHECK(pg.view_returns.empty());
+  SplatAdam::Step plain_step;
+  plain_step.scene = &plain;
+  plain_step.scene_gradients = &pg;
+  CHECK(SplatAdam(SplatAdamOptions{}, 3).step(plain_step));
+  CHECK_THROWS_AS(SplatAdam(o, 3).step(plain_step), std::invalid_argument);
 }

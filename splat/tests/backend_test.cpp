@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <numbers>
+#include <optional>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -391,7 +392,7 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   Vector6d g_left = Vector6d::Zero();
   Eigen::Vector3d g_v = Eigen::Vector3d::Zero();
   SceneGradients sg;
-  sg.reset(scene.size());
+  sg.reset(scene.size(), scene.has_view_returns());
   objective.evaluate(scene, all, cur.radar_T_world(), &vj.velocity, ra_target, rd_target, 1.0, 0.7, &sg, &g_left, &g_v,
                      directions);
   const Eigen::Vector3d g_cur = planar_gradient(cur, g_left + vj.d_current.transpose() * g_v);
@@ -461,8 +462,8 @@ TEST_CASE("Keyframe objective: gradients w.r.t. both poses of the keyframe pair 
   // neither the Gaussians nor the pose through the RA image.
   KeyframeObjective<double> velocity_only(grid, {}, rdo, lo, lo, /*rd_image_gradient=*/false);
   SceneGradients sg_rd, sg_rd_only;
-  sg_rd.reset(scene.size());
-  sg_rd_only.reset(scene.size());
+  sg_rd.reset(scene.size(), scene.has_view_returns());
+  sg_rd_only.reset(scene.size(), scene.has_view_returns());
   Vector6d g_pose_rd = Vector6d::Zero(), g_pose_rd_only = Vector6d::Zero();
   Eigen::Vector3d g_v_rd = Eigen::Vector3d::Zero(), g_v_rd_only = Eigen::Vector3d::Zero();
   const double rd_loss = objective
@@ -563,8 +564,8 @@ TEST_CASE("Keyframe objective with an occlusion mask: what lies beyond moves not
     // The RA loss alone: the Gaussian behind the mask changes neither the loss nor the pose's
     // gradient, and receives none ...
     SceneGradients sg, sg_near;
-    sg.reset(scene.size());
-    sg_near.reset(scene.size());
+    sg.reset(scene.size(), scene.has_view_returns());
+    sg_near.reset(scene.size(), scene.has_view_returns());
     Vector6d g_pose = Vector6d::Zero(), g_pose_near = Vector6d::Zero();
     CHECK(loss_of(radar_T_world, all, 0.0, &sg, &g_pose, nullptr, rows) ==
           loss_of(radar_T_world, near_only, 0.0, &sg_near, &g_pose_near, nullptr, rows));
@@ -574,13 +575,13 @@ TEST_CASE("Keyframe objective with an occlusion mask: what lies beyond moves not
     CHECK(sg.log_returns[far] == 0);
     // ... which it would without the mask.
     SceneGradients unmasked;
-    unmasked.reset(scene.size());
+    unmasked.reset(scene.size(), scene.has_view_returns());
     loss_of(radar_T_world, all, 0.0, &unmasked, nullptr, nullptr, {});
     CHECK(unmasked.log_returns[far] != 0);
   }
   // With the RD term it is in the RD, rendered from the whole RA.
   SceneGradients sg;
-  sg.reset(scene.size());
+  sg.reset(scene.size(), scene.has_view_returns());
   Vector6d g_pose = Vector6d::Zero();
   Eigen::Vector3d g_v = Eigen::Vector3d::Zero();
   loss_of(radar_T_world, all, 0.7, &sg, &g_pose, &g_v, rows);
@@ -703,6 +704,42 @@ TEST_CASE("Backend: published poses are the refined keyframe pose composed with 
               err_frontend / kp.size(), err_backend / kp.size());
   CHECK(err_backend < 0.5 * err_frontend);
   CHECK(backend.stats().nan_guard_hits == 0);
+}
+
+TEST_CASE("Backend: replace_odometry gives the keyframes the new odometry's tilt, keeps their heading and position",
+          "[splat][backend]") {
+  const SyntheticRig rig(6);
+  BackendOptions o = deterministic_options(5, 5, 5, 10);
+  o.body_T_radar.translation() = Eigen::Vector3d(0.05, 0, 0.02);
+  Backend backend(rig.config, rig.grids, o);
+  const double dt = 0.1, speed = 0.6;
+  feed_straight_walk(backend, rig, 14, dt, speed, 1.0);
+  const auto before = backend.keyframe_poses();
+  REQUIRE(before.size() >= 3);
+  // The whole run re-solved: 2 % longer, rolled 0.5 deg and pitched -0.3 deg; none for the first keyframe.
+  const gtsam::Rot3 tilt = gtsam::Rot3::Ypr(0, -0.3 * kDeg, 0.5 * kDeg);
+  const double first = before.front().first;
+  const auto smoothed = [&](double t) -> std::optional<gtsam::Pose3> {
+    if (std::abs(t - first) < 1e-9) return std::nullopt;
+    return gtsam::Pose3(tilt, gtsam::Point3(1.02 * speed * t, 0, 0));
+  };
+  CHECK(backend.replace_odometry(smoothed) == before.size() - 1);
+  const auto after = backend.keyframe_poses();
+  REQUIRE(after.size() == before.size());
+  const auto up_in_body = [](const gtsam::Pose3& p) { return p.rotation().unrotate(gtsam::Vector3::UnitZ()); };
+  CHECK(pose_distance(after[0].second, before[0].second) < 1e-12);  // not given: kept
+  for (std::size_t k = 1; k < after.size(); ++k) {
+    INFO("keyframe " << k);
+    const auto& [t, pose] = after[k];
+    CHECK((up_in_body(pose) - up_in_body(*smoothed(t))).norm() < 1e-9);  // the new tilt
+    CHECK((pose.translation() - before[k].second.translation()).norm() < 1e-12);  // the body where it was
+    CHECK(std::abs(std::remainder(pose.rotation().yaw() - before[k].second.rotation().yaw(), 2 * std::numbers::pi)) < 1e-4);
+    // The end-of-run trajectory from the new odometry: the keyframe's map pose at its own time,
+    // and the new odometry's tilt between keyframes.
+    CHECK(pose_distance(backend.revised(t, *smoothed(t)), pose) < 1e-9);
+    const double between = t + 0.5 * dt;
+    CHECK((up_in_body(backend.revised(between, *smoothed(between))) - up_in_body(*smoothed(between))).norm() < 1e-9);
+  }
 }
 
 TEST_CASE("Backend: bad frames are counted and change nothing", "[splat][backend]") {
@@ -1218,6 +1255,26 @@ TEST_CASE("Backend: with occlusion_threshold a keyframe's images take no part be
     CHECK(kf.ra_target.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
     CHECK(k.ra_measured.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
     CHECK(k.ra_rendered.col(a).tail(rows - n).cwiseAbs().maxCoeff() == 0);
+  }
+}
+
+TEST_CASE("Backend: the scene keeps view returns, and trains them, only with view_dependent_return",
+          "[splat][backend]") {
+  const SyntheticRig rig(8);
+  const auto& [config, grids, grid, world] = rig;
+  for (const bool view : {false, true}) {
+    BackendOptions o;
+    o.max_image_range_m = 12;
+    o.first_keyframe_mapping_iterations = 20;
+    o.view_dependent_return = view;
+    Backend backend(config, grids, o);
+    add_first_keyframe(backend, rig);
+    const GaussianScene& scene = backend.scene();
+    REQUIRE(scene.size() > 0);
+    CHECK(scene.has_view_returns() == view);
+    CHECK(scene.view_returns().size() == (view ? kViewTerms * scene.size() : 0));
+    if (view)
+      CHECK(std::any_of(scene.view_returns().begin(), scene.view_returns().end(), [](double c) { return c != 0.0; }));
   }
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 
 #include "rsrio/splat/losses.hpp"
 #include "splat_test_support.hpp"
@@ -115,11 +116,13 @@ TEST_CASE("The combined loss on compressed images: gradient w.r.t. the linear re
 
 TEST_CASE("View-return regulariser: value and gradient", "[splat][loss]") {
   std::mt19937_64 rng(3);
-  GaussianScene scene = random_scene(rng, Eigen::Isometry3d::Identity(), 6);
+  SceneOptions scene_options;
+  scene_options.view_returns = true;
+  GaussianScene scene = random_scene(rng, Eigen::Isometry3d::Identity(), 6, 2.0, 8.0, 50, 15, 0.05, 0.4, scene_options);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (double& c : scene.mutable_view_returns()) c = u(rng);
   SceneGradients g;
-  g.reset(scene.size());
+  g.reset(scene.size(), scene.has_view_returns());
   const double weight = 3.0;
   const double value = view_return_regulariser(scene, {}, weight, &g);
   double sum = 0;
@@ -141,13 +144,18 @@ TEST_CASE("View-return regulariser: value and gradient", "[splat][loss]") {
   CHECK(err < 1e-6);
   // A list restricts the mean and the gradient to the listed Gaussians.
   SceneGradients h;
-  h.reset(scene.size());
+  h.reset(scene.size(), scene.has_view_returns());
   const std::vector<std::uint32_t> one = {2};
   double own = 0;
   for (std::size_t c = 0; c < kViewTerms; ++c) own += std::pow(scene.view_returns()[kViewTerms * 2 + c], 2);
   CHECK_THAT(view_return_regulariser(scene, one, weight, &h), Catch::Matchers::WithinRel(weight * own / kViewTerms, 1e-12));
   CHECK(h.view_returns[0] == 0.0);
   CHECK(h.view_returns[kViewTerms * 2] == 2 * weight / kViewTerms * scene.view_returns()[kViewTerms * 2]);
+  // Gradients without the block the scene has are refused; a scene without view returns has none to hold.
+  SceneGradients without;
+  without.reset(scene.size(), false);
+  CHECK_THROWS_AS(view_return_regulariser(scene, {}, weight, &without), std::invalid_argument);
+  CHECK(view_return_regulariser(random_scene(rng, Eigen::Isometry3d::Identity(), 6), {}, weight, &without) == 0.0);
 }
 
 TEST_CASE("Scale regulariser: value and gradient", "[splat][loss]") {
@@ -157,7 +165,7 @@ TEST_CASE("Scale regulariser: value and gradient", "[splat][loss]") {
   o.max_scale_m = 1.0;
   o.weight = 10.0;
   SceneGradients g;
-  g.reset(scene.size());
+  g.reset(scene.size(), scene.has_view_returns());
   const double value = scale_regulariser(scene, {}, o, &g);
   CHECK(value > 0);
   std::vector<double> numeric(g.log_scales.size());
@@ -177,7 +185,7 @@ TEST_CASE("Scale regulariser: value and gradient", "[splat][loss]") {
   // A list restricts the mean to the listed Gaussians.
   const std::vector<std::uint32_t> one = {0};
   SceneGradients g1;
-  g1.reset(scene.size());
+  g1.reset(scene.size(), scene.has_view_returns());
   scale_regulariser(scene, one, o, &g1);
   for (std::size_t i = 1; i < scene.size(); ++i) CHECK(g1.log_scales[3 * i] == 0.0);
 }

@@ -21,10 +21,10 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 // An indoor room around the origin: textured walls (Gaussians every 0.25 m with returns varying
 // over a decade), pillars and clutter, on the z = 0 plane of the radar.
-GaussianScene make_room(std::uint64_t seed) {
+GaussianScene make_room(std::uint64_t seed, const SceneOptions& options = {}) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  GaussianScene scene;
+  GaussianScene scene(options);
   auto add = [&](const Eigen::Vector3d& p, double scale, double rho) {
     const Eigen::Quaterniond q(Eigen::AngleAxisd(u(rng) * std::numbers::pi, Eigen::Vector3d::UnitZ()));
     scene.add(p, q, Eigen::Vector3d(std::log(scale), std::log(0.6 * scale), std::log(0.5 * scale)), std::log(rho));
@@ -175,7 +175,7 @@ MappingTargets mapping_targets(const RaRenderer<float>& renderer, const Gaussian
 // The summed RA loss of the map over the views, its gradients in `grads` (reset first).
 double mapping_loss(const RaRenderer<float>& renderer, const GaussianScene& scene,
                     const std::vector<Eigen::Isometry3d>& poses, MappingTargets& targets, SceneGradients& grads) {
-  grads.reset(scene.size());
+  grads.reset(scene.size(), scene.has_view_returns());
   Image<float> image, grad;
   double total = 0;
   for (std::size_t k = 0; k < poses.size(); ++k) {
@@ -329,7 +329,9 @@ TEST_CASE("Mapping fits view-dependent returns that one return per Gaussian cann
   // simulator's incidence exponent makes them): each wall Gaussian's true view terms are
   // c2 cos 2 phi + c1 cos(phi - normal) shaped, drawn per wall. The keyframes look at the walls
   // from different sides, so that one return per Gaussian is wrong for some of them.
-  GaussianScene truth = make_room(3);
+  SceneOptions scene_options;
+  scene_options.view_returns = true;
+  GaussianScene truth = make_room(3, scene_options);
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (std::size_t i = 0; i < truth.size(); ++i) {

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 #include <utility>
 
 #include "rsrio/splat/ra_renderer.hpp"
@@ -41,7 +42,9 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
   planar.roll = 0.05;
   planar.pitch = -0.03;
   const Eigen::Isometry3d pose = planar.radar_T_world();
-  GaussianScene scene = random_scene(rng, pose, 8);
+  SceneOptions scene_options;
+  scene_options.view_returns = options.view_dependent_return;
+  GaussianScene scene = random_scene(rng, pose, 8, 2.0, 8.0, 50, 15, 0.05, 0.4, scene_options);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   if (options.view_dependent_return)
     for (double& c : scene.mutable_view_returns()) c = 0.7 * u(rng);
@@ -49,7 +52,7 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
   for (Eigen::Index k = 0; k < weights.size(); ++k) weights.data()[k] = u(rng);
 
   SceneGradients grads;
-  grads.reset(scene.size());
+  grads.reset(scene.size(), scene.has_view_returns());
   Vector6d grad_pose = Vector6d::Zero();
   renderer.backward(scene, pose, weights, &grads, &grad_pose);
 
@@ -78,7 +81,8 @@ GradCheck check_gradients(const RaRenderOptions& options, std::uint64_t seed) {
   out.rotation = param_check(&GaussianScene::mutable_rotations, grads.rotations, 4, 1e-6);
   out.log_scale = param_check(&GaussianScene::mutable_log_scales, grads.log_scales, 3, 1e-6);
   out.log_return = param_check(&GaussianScene::mutable_log_returns, grads.log_returns, 1, 1e-6);
-  out.view_return = param_check(&GaussianScene::mutable_view_returns, grads.view_returns, kViewTerms, 1e-6);
+  if (scene.has_view_returns())
+    out.view_return = param_check(&GaussianScene::mutable_view_returns, grads.view_returns, kViewTerms, 1e-6);
 
   std::vector<double> numeric6(6);
   for (int k = 0; k < 6; ++k)
@@ -167,7 +171,9 @@ TEST_CASE("A view-dependent return scales a Gaussian by exp(c . b(phi)) at the w
   RaRenderOptions on;
   on.view_dependent_return = true;
   const RaRenderer<double> isotropic(grid), viewed(grid, on);
-  GaussianScene scene;
+  SceneOptions scene_options;
+  scene_options.view_returns = true;
+  GaussianScene scene(scene_options);
   REQUIRE(scene.add({3.0, 1.0, 0.0}, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.05)), 0.0));
   const double c[kViewTerms] = {0.4, -0.3, 0.2, 0.5};
   std::copy_n(c, kViewTerms, scene.mutable_view_returns().data());
@@ -189,6 +195,20 @@ TEST_CASE("A view-dependent return scales a Gaussian by exp(c . b(phi)) at the w
     CHECK_THAT(b.amplitude / a.amplitude, Catch::Matchers::WithinRel(expected, 1e-12));
     CHECK_THAT(b.range_bin, Catch::Matchers::WithinAbs(a.range_bin, 1e-12));
   }
+  // A scene made without view returns stores none, and the renderer that would read them refuses
+  // it (and gradients without their block) rather than read past its storage.
+  GaussianScene plain;
+  REQUIRE(plain.add({3.0, 1.0, 0.0}, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.05)), 0.0));
+  CHECK(plain.view_returns().empty());
+  Image<double> image;
+  CHECK_NOTHROW(isotropic.render(plain, Eigen::Isometry3d::Identity(), image));
+  CHECK_THROWS_AS(viewed.render(plain, Eigen::Isometry3d::Identity(), image), std::invalid_argument);
+  CHECK_THROWS_AS(viewed.footprint(plain, 0, Eigen::Isometry3d::Identity()), std::invalid_argument);
+  SceneGradients without;
+  without.reset(scene.size(), false);
+  CHECK_THROWS_AS(viewed.backward(scene, Eigen::Isometry3d::Identity(), Image<double>::Ones(grid.range_bins, grid.azimuth_bins),
+                                  &without, nullptr),
+                  std::invalid_argument);
 }
 
 TEST_CASE("The azimuth gain dims a Gaussian by the two-way pattern at its azimuth", "[splat][ra]") {
@@ -306,7 +326,7 @@ TEST_CASE("Gaussians behind or at the radar render nothing", "[splat][ra]") {
   CHECK(stats.gaussians_drawn == 0);
   CHECK(image.cwiseAbs().maxCoeff() == 0.0);
   SceneGradients grads;
-  grads.reset(scene.size());
+  grads.reset(scene.size(), scene.has_view_returns());
   Vector6d gp = Vector6d::Zero();
   renderer.backward(scene, Eigen::Isometry3d::Identity(), Image<double>::Ones(64, 64), &grads, &gp);
   CHECK(grads.all_finite());

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <limits>
 #include <random>
+#include <stdexcept>
 
 #include "rsrio/splat/gaussian_scene.hpp"
 
@@ -104,6 +105,7 @@ TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
   SceneOptions o;
   o.densify_grad_threshold = 1e-3;
   o.densify_split_scale_m = 0.25;
+  o.view_returns = true;  // the children and compaction must carry them
   GaussianScene scene(o);
   const Eigen::Quaterniond id = Eigen::Quaterniond::Identity();
   scene.add(Eigen::Vector3d(1, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), std::log(1.0));   // clone
@@ -124,7 +126,7 @@ TEST_CASE("Pruning, densification and the NaN guard", "[splat][scene]") {
   CHECK(remap == SceneRemap{0, 1, 2});
 
   SceneGradients g;
-  g.reset(scene.size());
+  g.reset(scene.size(), scene.has_view_returns());
   g.image_mean_grad_norm = {0.01, 0.02, 1e-5};
   g.visible_count = {2, 4, 1};
   // Each Gaussian's view returns tell it apart: the children must carry their parent's.
@@ -188,9 +190,39 @@ TEST_CASE("add_points keeps a minimum spacing to existing and new Gaussians", "[
   CHECK_THROWS(scene.add_points(second, AddPointsOptions{-1.0, 1.0, 0.0}, Eigen::Vector3d::Zero()));
 }
 
+TEST_CASE("A scene made without view returns stores none through densify, prune and sanitize", "[splat][scene]") {
+  SceneOptions o;
+  o.densify_grad_threshold = 1e-3;
+  GaussianScene scene(o);
+  const Eigen::Quaterniond id = Eigen::Quaterniond::Identity();
+  scene.add(Eigen::Vector3d(1, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), 0.0);                       // clone
+  scene.add(Eigen::Vector3d(2, 0, 0), id, Eigen::Vector3d(std::log(0.5), std::log(0.1), std::log(0.1)), 0.0);  // split
+  scene.add(Eigen::Vector3d(3, 0, 0), id, Eigen::Vector3d::Constant(std::log(0.1)), std::log(1e-12));          // pruned
+  CHECK_FALSE(scene.has_view_returns());
+  CHECK(scene.view_returns().empty());
+  SceneGradients g;
+  g.reset(scene.size(), scene.has_view_returns());
+  CHECK(g.view_returns.empty());
+  g.image_mean_grad_norm = {0.01, 0.02, 0.0};
+  g.visible_count = {1, 1, 0};
+  scene.accumulate_densify_stats(g);
+  CHECK(scene.densify(Eigen::Vector3d::Zero()).size() == 5);
+  CHECK(scene.prune().size() == 4);
+  scene.mutable_means()[0] = std::numeric_limits<double>::quiet_NaN();
+  CHECK(scene.sanitize().size() == 3);
+  CHECK(scene.view_returns().empty());
+  g.reset(scene.size(), false);
+  g.zero_rows(std::vector<std::uint32_t>{0, 2});
+  CHECK(g.all_finite(std::vector<std::uint32_t>{0, 2}));
+  // Gradients laid out for another scene are refused, not read past.
+  SceneGradients with_view;
+  with_view.reset(scene.size(), true);
+  CHECK_THROWS_AS(g.add(with_view), std::invalid_argument);
+}
+
 TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed Gaussians", "[splat][scene]") {
   SceneGradients g;
-  g.reset(5);
+  g.reset(5, true);
   for (auto* v : {&g.means, &g.rotations, &g.log_scales, &g.log_returns, &g.view_returns, &g.image_mean_grad_norm})
     std::fill(v->begin(), v->end(), 1.0);
   std::fill(g.visible_count.begin(), g.visible_count.end(), 3u);

@@ -49,12 +49,13 @@ inline Eigen::Isometry3d random_pose(std::mt19937_64& rng, double translation, d
 }
 
 /// n Gaussians in front of the radar pose (radar frame range [r0, r1], azimuth +-az, elevation
-/// +-el), mapped to the world by the pose; random anisotropic scales and rotations, returns.
+/// +-el), mapped to the world by the pose; random anisotropic scales and rotations, returns (the
+/// view returns, if `options` keeps them, zero).
 inline GaussianScene random_scene(std::mt19937_64& rng, const Eigen::Isometry3d& radar_T_world, int n,
                                   double r0 = 2.0, double r1 = 8.0, double az_deg = 50, double el_deg = 15,
-                                  double s0 = 0.05, double s1 = 0.4) {
+                                  double s0 = 0.05, double s1 = 0.4, const SceneOptions& options = {}) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  GaussianScene scene;
+  GaussianScene scene(options);
   const Eigen::Isometry3d world_T_radar = radar_T_world.inverse();
   const double deg = std::numbers::pi / 180.0;
   for (int i = 0; i < n; ++i) {

@@ -10,6 +10,7 @@
 #include <deque>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <gtsam/geometry/Pose3.h>
 #include <gtsam/navigation/CombinedImuFactor.h>
@@ -68,6 +69,12 @@ struct FrontendOptions {
   // velocity, and its integral drifts (tenths of a metre over a few minutes: the SE(3) alignment
   // then tilts a run by a degree). Orientation and velocity are the window's either way.
   bool position_from_velocity = false;
+  // Keep every factor and state of the run (besides the window) so that smooth_whole_run() can
+  // solve the whole run as one batch at its end: what the window marginalised, linearised at its
+  // estimate then, is re-linearised with everything measured after it (the accelerometer bias,
+  // told from a tilt only by turns spread over the run). An end-of-run estimate (rsrio-replay's
+  // estimate_final.tum), not causal; memory grows with the run (a few kB a frame), so not for rsriod.
+  bool whole_run_smoother = false;
   // Window and priors.
   int window_states = 20;
   int lm_max_iterations = 15;
@@ -97,6 +104,15 @@ struct ImuSample {
 struct SettledState {
   double t = 0;               // radar clock: the t its frame was published with (to rounding)
   gtsam::Pose3 world_T_body;  // in the window's frame as the state leaves it
+  gtsam::imuBias::ConstantBias bias;
+};
+
+/// One state of the whole run as smooth_whole_run() estimated it (in the window's frame: without
+/// the continuous odometry's offsets).
+struct SmoothedState {
+  double t = 0;  // radar clock, the t its frame was published with
+  gtsam::Pose3 world_T_body;
+  gtsam::Vector3 velocity_world = gtsam::Vector3::Zero();
   gtsam::imuBias::ConstantBias bias;
 };
 
@@ -141,6 +157,10 @@ class RioFrontend {
   std::uint64_t imu_ignored() const { return imu_ignored_; }
   std::uint64_t frames_without_radar() const { return frames_without_radar_; }
   std::uint64_t zero_rate_updates() const { return zero_rate_updates_; }
+  /// whole_run_smoother: every state of the run so far, solved as one batch over every factor added
+  /// (Levenberg-Marquardt from the window's estimates, at most max_iterations), in time order.
+  /// Empty without the option. Takes seconds for a run of minutes; leaves the window as it is.
+  std::vector<SmoothedState> smooth_whole_run(int max_iterations = 30) const;
 
  private:
   bool initialise(double t, const EgoVelocity& ego);
@@ -161,6 +181,13 @@ class RioFrontend {
   std::deque<std::pair<std::uint64_t, double>> window_;  // state index, IMU-clock time
   gtsam::NonlinearFactorGraph graph_;
   gtsam::Values values_;
+  // whole_run_smoother: every factor added (never the marginals), the states that left the window
+  // at their estimate then, and each state's radar time.
+  gtsam::NonlinearFactorGraph whole_graph_;
+  gtsam::Values whole_values_;
+  std::vector<std::pair<std::uint64_t, double>> whole_times_;
+  /// graph_.add, and whole_graph_ with the option.
+  void add_factor(const gtsam::NonlinearFactor::shared_ptr& factor);
   std::uint64_t next_ = 0;
   std::uint64_t imu_ignored_ = 0;
   std::uint64_t frames_without_radar_ = 0;

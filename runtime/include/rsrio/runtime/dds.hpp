@@ -55,6 +55,10 @@ class DdsParticipant {
   eprosima::fastdds::dds::DataReader* make_reader(const std::string& topic,
                                                   eprosima::fastdds::dds::TypeSupport type, QosPreset qos,
                                                   eprosima::fastdds::dds::DataReaderListener* listener = nullptr);
+  /// Deletes a reader made here (its listener is called no more once this returns: Fast DDS disables
+  /// the reader and waits for a callback in progress). What a listener that dies before the
+  /// participant calls first.
+  void delete_reader(eprosima::fastdds::dds::DataReader* reader);
 
   eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
 

@@ -54,6 +54,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <iosfwd>
 #include <memory>
 #include <optional>
@@ -510,6 +511,12 @@ class Backend {
   /// keyframe being optimised keeps the iterations it has made.
   void set_cancel_flag(const std::atomic<bool>* cancel) { cancel_ = cancel; }
 
+  /// Every keyframe's frontend pose replaced by odom_at(its t) where that gives one (the frontend's
+  /// whole run solved as one batch: rio::RioFrontend::smooth_whole_run), so that the end-of-run BA's
+  /// odometry priors (relative motion; 6-DoF: the tilt) and revised() follow it. The keyframes'
+  /// map poses keep their heading and position and take the new odometry's roll and pitch.
+  /// Before finish(); not causal. Returns the keyframes whose pose was replaced.
+  std::size_t replace_odometry(const std::function<std::optional<gtsam::Pose3>(double t)>& odom_at);
   /// The end-of-run BA (options().final_ba; nothing when its max_iterations is 0). Call once the
   /// last frame is in; later frames are still accepted, but the windows then start from its map.
   void finish();

@@ -56,6 +56,10 @@ struct SceneOptions {
   double max_log_scale = 4.0;           // ~55 m
   double min_log_return = -60.0;
   double max_log_return = 60.0;
+  // Whether each Gaussian stores view returns (the backend's view_dependent_return). Off, the
+  // block stays empty: 32 B a Gaussian, and as much again in its gradients, for terms that are
+  // never used (about 7 MB of the hour bench's heap).
+  bool view_returns = false;
   double max_view_return = 5.0;         // |c_k|: the view factor stays within e^(+-20)
   // Pruning.
   double prune_min_return = 1e-8;       // rho below this: the Gaussian contributes nothing
@@ -73,16 +77,16 @@ struct SceneGradients {
   std::vector<double> rotations;      // 4 N (w.r.t. the stored, unnormalised quaternion)
   std::vector<double> log_scales;     // 3 N
   std::vector<double> log_returns;    // N
-  std::vector<double> view_returns;   // kViewTerms N
+  std::vector<double> view_returns;   // kViewTerms N, or empty for a scene without view returns
   /// Densification statistic: sum over renders of |dL/d(mean in (range, azimuth) bins)|, and the
   /// number of renders in which the Gaussian touched a pixel.
   std::vector<double> image_mean_grad_norm;  // N
   std::vector<std::uint32_t> visible_count;  // N
 
   std::size_t size() const { return log_returns.size(); }
-  /// Sizes for n Gaussians and zeroes everything.
-  void reset(std::size_t n);
-  void set_zero() { reset(size()); }
+  /// Sizes for n Gaussians (view_returns: with the view returns' block) and zeroes everything.
+  void reset(std::size_t n, bool view_returns);
+  void set_zero() { reset(size(), !view_returns.empty()); }
   /// Zeroes the listed Gaussians' rows only. An optimisation stage draws the Gaussians near its
   /// views; zeroing all N every iteration would cost more than the rendering once the map holds
   /// ~10^5 Gaussians (rsrio-splat-hour-bench).
@@ -113,7 +117,9 @@ class GaussianScene {
   std::span<const double> rotations() const { return rotations_; }
   std::span<const double> log_scales() const { return log_scales_; }
   std::span<const double> log_returns() const { return log_returns_; }
+  /// kViewTerms a Gaussian when options().view_returns, empty otherwise.
   std::span<const double> view_returns() const { return view_returns_; }
+  bool has_view_returns() const { return options_.view_returns; }
   std::span<double> mutable_means() {
     index_stale_ = true;
     return means_;
