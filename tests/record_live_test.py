@@ -103,7 +103,7 @@ def main():
     imu_publisher = None
     imu_args = []
     if mode == 'sigterm':
-        os.environ['ROS_DOMAIN_ID'] = str(100 + tag % 100)  # a DDS domain of this run's own
+        os.environ['ROS_DOMAIN_ID'] = str(60 + tag % 40)  # a DDS domain of this run's own (runtime/tests/daemon_end_to_end.sh lists the ranges)
         imu_topic = f'rt/rsrio_test/imu_{tag}'
         imu_publisher = subprocess.Popen([publish_imu, imu_topic, '200'], stdout=subprocess.PIPE, text=True)
         imu_args = ['--imu-topic', imu_topic]

@@ -23,8 +23,9 @@
 //                    interpolated at the stamps of frontend.tum (none across a gap of 0.25 s)
 // DIR/stats.json     frames, rejections by reason, damaged frames, timings (p50/p99), peak memory
 // DIR/frontend_smoothed.tum  with frontend.whole_run_smoother: every state of the run as one batch
-//                    over every factor solved it at the end (the window's frame: not continuous at
-//                    zero-rate updates as frontend.tum is; not causal)
+//                    over every factor solved it at the end (not causal; in the window's frame,
+//                    without the offsets by which frontend.tum carries the zero-rate updates'
+//                    re-estimates forward, so the two may part by a rotation about the vertical)
 // With --backend ba also
 // DIR/estimate_final.tum  every frame's pose as the backend's map has it at the end of the run
 //                    (Backend::revised: later BA and loop closures correct earlier poses, and the
@@ -658,7 +659,13 @@ int main(int argc, char** argv) {
     std::vector<rsrio::rio::SmoothedState> smoothed;
     if (options.frontend.whole_run_smoother && odometry) {
       const auto t0 = std::chrono::steady_clock::now();
-      smoothed = odometry->frontend().smooth_whole_run();
+      try {
+        smoothed = odometry->frontend().smooth_whole_run();
+      } catch (const std::exception& e) {  // e.g. a run too short to constrain: the rest is still written
+        spdlog::warn("frontend.whole_run_smoother: the batch failed ({}); frontend_smoothed.tum not written, the end "
+                     "of run from the window's estimates",
+                     e.what());
+      }
       smoother_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     }
     for (const auto& s : smoothed) frontend_smoothed_tum.push_back(stamped(s.t, s.world_T_body * options.frontend.body_T_radar));

@@ -18,7 +18,7 @@ helpers=${RSRIO_HELPER_BIN_DIR:-$bin}
 for p in rsrio-sim rsrio-replay rsrio-eval; do
   [ -x "$helpers/$p" ] || { echo "FAIL: $helpers/$p missing (build the release preset first: ./rsrio build)"; exit 1; }
 done
-domain=$((150 + ($$ + 20) % 80))
+domain=$((170 + $$ % 30))   # this test's range of domains (daemon_end_to_end.sh lists them)
 fail() { echo "FAIL: $*"; for f in "$out"/*.log; do echo "--- $f"; tail -n 30 "$f"; done; exit 1; }
 
 "$helpers/rsrio-sim" --scenario scenarios/test_tiny.yaml --out "$out/tiny.mcap" >"$out/sim.log" 2>&1 || fail "rsrio-sim"

@@ -19,7 +19,7 @@ bin=$1 out=$2
 helpers=${RSRIO_HELPER_BIN_DIR:-$bin}
 [ -x "$helpers/rsrio-dca1000-emu" ] || { echo "FAIL: $helpers/rsrio-dca1000-emu missing (build the release preset first: ./rsrio build)"; exit 1; }
 mkdir -p "$out"
-domain=$((150 + ($$ + 40) % 80))
+domain=$((200 + $$ % 30))   # this test's range of domains (daemon_end_to_end.sh lists them)
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT

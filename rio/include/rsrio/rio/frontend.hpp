@@ -159,7 +159,8 @@ class RioFrontend {
   std::uint64_t zero_rate_updates() const { return zero_rate_updates_; }
   /// whole_run_smoother: every state of the run so far, solved as one batch over every factor added
   /// (Levenberg-Marquardt from the window's estimates, at most max_iterations), in time order.
-  /// Empty without the option. Takes seconds for a run of minutes; leaves the window as it is.
+  /// Empty without the option. Takes under a second for a run of minutes (3191 states: 0.6 s);
+  /// leaves the window as it is. Throws what GTSAM throws for a system it cannot solve.
   std::vector<SmoothedState> smooth_whole_run(int max_iterations = 30) const;
 
  private:
