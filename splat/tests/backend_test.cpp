@@ -2,6 +2,7 @@
 // keyframe-pair velocity, the map -> odom correction, bad input.
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/generators/catch_generators.hpp>
+#include <catch2/matchers/catch_matchers_string.hpp>
 
 #include <malloc.h>
 
@@ -253,6 +254,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   BackendOptions no_query;
   no_query.loop.max_query_points = 0;
   CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);
+  BackendOptions negative_final_ba;  // options made in code are checked as the file's are, every stage
+  negative_final_ba.final_ba.max_iterations = -1;
+  CHECK_THROWS_WITH(validate(negative_final_ba), Catch::Matchers::ContainsSubstring("final_ba.max_iterations"));
 }
 
 TEST_CASE("mask_uncovered: pose refinement keeps the measured pixels near what the map renders", "[splat][backend]") {
