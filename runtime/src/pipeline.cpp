@@ -93,6 +93,17 @@ double percentile(std::vector<double> v, double q) {
   return v[k];
 }
 
+// A batch over the whole run keeps every factor and state: in a daemon its memory and its solve
+// would grow without bound. rsriod refuses it in its options file already; this is the pipeline's
+// own guard, for any other program that builds one.
+const rio::OdometryOptions& daemon_stage(const rio::OdometryOptions& stage) {
+  if (stage.frontend.whole_run_smoother)
+    throw std::invalid_argument(
+        "Pipeline: frontend.whole_run_smoother must be false in a running pipeline (the whole run as one batch is "
+        "rsrio-replay's end of run)");
+  return stage;
+}
+
 }  // namespace
 
 struct Pipeline::Impl : fdds::DataReaderListener {
@@ -591,7 +602,7 @@ struct Pipeline::Impl : fdds::DataReaderListener {
 
 Pipeline::Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
                    const splat::BackendOptions& backend, DdsParticipant& dds)
-    : impl_(std::make_unique<Impl>(options, radar, stage, backend, dds)) {
+    : impl_(std::make_unique<Impl>(options, radar, daemon_stage(stage), backend, dds)) {
   impl_->publisher = std::make_unique<OdometryPublisher>(dds, impl_->publisher_options);
   if (options.imu_source == "dds")
     impl_->imu_reader = dds.make_reader(ros_topic_to_dds(options.imu_topic),

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include <catch2/catch_test_macros.hpp>
+#include <catch2/matchers/catch_matchers_string.hpp>
 
 #include "dds_test_support.hpp"
 #include "rsrio/common/radar_config.hpp"
@@ -72,4 +73,19 @@ TEST_CASE("Pipeline: its IMU reader goes with it while the participant keeps rec
   }
   stop.store(true);
   imu.join();
+}
+
+TEST_CASE("Pipeline: refuses the frontend's whole-run smoother, whose memory grows with the run",
+          "[pipeline]") {
+  rsrio::DdsParticipant dds(rsrio::testing::loopback_options("pipeline_test_smoother"));
+  rsrio::DaemonOptions options;
+  options.radar_source = "dca1000://127.0.0.9";  // never opened
+  options.imu_source = "dds";
+  options.imu_topic = "/pipeline_test/smoother_imu";
+  const rsrio::RadarConfig radar = rsrio::radar_preset("xwr1843");
+  rsrio::rio::OdometryOptions stage;
+  { rsrio::Pipeline accepted(options, radar, stage, {}, dds); }  // the defaults: built and gone
+  stage.frontend.whole_run_smoother = true;
+  CHECK_THROWS_WITH(rsrio::Pipeline(options, radar, stage, {}, dds),
+                    Catch::Matchers::ContainsSubstring("frontend.whole_run_smoother must be false"));
 }

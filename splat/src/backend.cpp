@@ -722,7 +722,8 @@ double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std:
     const PlanarPose pa = planar(keyframes_[a].world_T_radar), pb = planar(keyframes_[b].world_T_radar);
     Eigen::Vector3d ga = Eigen::Vector3d::Zero(), gb = Eigen::Vector3d::Zero();
     loss += planar_relative_prior(pa, pb, odom_radar(keyframes_[a]), odom_radar(keyframes_[b]),
-                                  options_.odometry_prior_sigma_m, sigma_r, &ga, &gb);
+                                  options_.odometry_prior_sigma_m, sigma_r, &ga, &gb,
+                                  options_.odometry_prior_across_sigma_m);
     // The stages sum left-increment gradients; left_increment_jacobian's columns are orthonormal,
     // so planar_gradient(J g) = g: the planar gradient passes through unchanged (3-DoF), and 6-DoF
     // poses see the same prior on their x, y, yaw.

@@ -94,6 +94,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("odometry_prior", o.odometry_prior);
   node.read("odometry_prior_sigma_m", o.odometry_prior_sigma_m, {1e-6, 100.0});
   node.read("odometry_prior_sigma_deg", o.odometry_prior_sigma_deg, {1e-6, 180.0});
+  node.read("odometry_prior_across_sigma_m", o.odometry_prior_across_sigma_m, {0.0, 100.0});
   node.read("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_deg, {0.0, 180.0});
   node.read("tilt_prior_sigma_deg", o.tilt_prior_sigma_deg, {1e-6, 180.0});
   node.read("height_prior_sigma_m", o.height_prior_sigma_m, {1e-6, 100.0});
@@ -208,6 +209,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  odometry_prior: " << (o.odometry_prior ? "true" : "false") << "\n"
       << "  odometry_prior_sigma_m: " << o.odometry_prior_sigma_m << "\n"
       << "  odometry_prior_sigma_deg: " << o.odometry_prior_sigma_deg << "\n"
+      << "  odometry_prior_across_sigma_m: " << o.odometry_prior_across_sigma_m << "\n"
       << "  odometry_yaw_sigma_deg: " << o.odometry_yaw_sigma_deg << "\n"
       << "  tilt_prior_sigma_deg: " << o.tilt_prior_sigma_deg << "\n"
       << "  height_prior_sigma_m: " << o.height_prior_sigma_m << "\n"
@@ -272,6 +274,7 @@ void validate(const BackendOptions& o, const std::string& file) {
     fail("max_keyframes", "an integer > max_keyframe_points (only keyframes without images and points are dropped)");
   if (o.odometry_prior && !(o.odometry_prior_sigma_m > 0)) fail("odometry_prior_sigma_m", "a number > 0");
   if (o.odometry_prior && !(o.odometry_prior_sigma_deg > 0)) fail("odometry_prior_sigma_deg", "a number > 0");
+  if (!(o.odometry_prior_across_sigma_m >= 0)) fail("odometry_prior_across_sigma_m", "a number >= 0 (0: isotropic)");
   if (!(o.loop.cell_m > 0)) fail("loop_match.cell_m", "a number > 0");
   if (!(o.loop.step_deg > 0)) fail("loop_match.step_deg", "a number > 0");
   if (!(o.loop.sigma_m > 0)) fail("loop_match.sigma_m", "a number > 0");

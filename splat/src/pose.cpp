@@ -137,20 +137,33 @@ double planar_yaw_prior(const PlanarPose& pose, double yaw_odom, double sigma, E
 
 double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const PlanarPose& a_odom,
                              const PlanarPose& b_odom, double sigma_t, double sigma_r, Eigen::Vector3d* grad_a,
-                             Eigen::Vector3d* grad_b) {
-  if (!(sigma_t > 0) || !(sigma_r > 0))
-    throw std::invalid_argument("planar_relative_prior: sigmas must be positive");
-  const Eigen::Vector2d u = planar_displacement(a, b) - planar_displacement(a_odom, b_odom);
+                             Eigen::Vector3d* grad_b, double sigma_across) {
+  if (!(sigma_t > 0) || !(sigma_r > 0) || !(sigma_across >= 0))
+    throw std::invalid_argument("planar_relative_prior: sigmas must be positive (sigma_across >= 0)");
+  const Eigen::Vector2d d_odom = planar_displacement(a_odom, b_odom);
+  const Eigen::Vector2d u = planar_displacement(a, b) - d_odom;
   const double w = wrap_angle(b.yaw - a.yaw - (b_odom.yaw - a_odom.yaw));
   const double it2 = 1.0 / (sigma_t * sigma_t), ir2 = 1.0 / (sigma_r * sigma_r);
+  // Split along and across the frontend's displacement when that is long enough to have a
+  // direction n: the across part of u weighs 1 / sigma_across^2 instead of 1 / sigma_t^2, added as
+  // `extra` (n^T u) n on top of the isotropic term (exactly zero when off, so that the isotropic
+  // prior computes as it always did and the tables replay to the last digit).
+  Eigen::Vector2d n = Eigen::Vector2d::Zero();
+  double extra = 0;
+  if (sigma_across > 0 && d_odom.norm() >= kAcrossMinDisplacementM) {
+    n = Eigen::Vector2d(-d_odom.y(), d_odom.x()).normalized();
+    extra = (1.0 / (sigma_across * sigma_across) - it2) * n.dot(u);
+  }
   const double c = std::cos(a.yaw), s = std::sin(a.yaw);
+  auto rotate = [&](const Eigen::Vector2d& v) { return Eigen::Vector2d(c * v.x() - s * v.y(), s * v.x() + c * v.y()); };
   // d u / d p_b = R^T, d u / d p_a = -R^T, d u / d yaw_a = dR^T/dyaw (p_b - p_a).
-  const Eigen::Vector2d g_pb = it2 * Eigen::Vector2d(c * u.x() - s * u.y(), s * u.x() + c * u.y());  // R u / sigma^2
+  const Eigen::Vector2d g_pb = it2 * rotate(u) + extra * rotate(n);  // R (information u)
   const double dx = b.x - a.x, dy = b.y - a.y;
   const Eigen::Vector2d du_dyaw(-s * dx + c * dy, -c * dx - s * dy);
-  if (grad_a != nullptr) *grad_a += Eigen::Vector3d(-g_pb.x(), -g_pb.y(), it2 * u.dot(du_dyaw) - ir2 * w);
+  if (grad_a != nullptr)
+    *grad_a += Eigen::Vector3d(-g_pb.x(), -g_pb.y(), it2 * u.dot(du_dyaw) + extra * n.dot(du_dyaw) - ir2 * w);
   if (grad_b != nullptr) *grad_b += Eigen::Vector3d(g_pb.x(), g_pb.y(), ir2 * w);
-  return 0.5 * (it2 * u.squaredNorm() + ir2 * w * w);
+  return 0.5 * (it2 * u.squaredNorm() + extra * n.dot(u) + ir2 * w * w);
 }
 
 double vertical_prior(const Eigen::Isometry3d& radar_T_world, const Eigen::Vector3d& up_reference, double z_reference,

@@ -228,6 +228,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {body_T_radar: {translation_m: [1, 2]}}\n", "translation_m");
   fails_on("backend: {ssim_window: 8}\n", "ssim_window");
   fails_on("backend: {odometry_prior_sigma_m: 0}\n", "odometry_prior_sigma_m");
+  fails_on("backend: {odometry_prior_across_sigma_m: -0.01}\n", "odometry_prior_across_sigma_m");
+  CHECK(load("backend: {odometry_prior_across_sigma_m: 0.005}\n").odometry_prior_across_sigma_m == 0.005);
   fails_on("backend: {level_floor: yes please}\n", "level_floor");
   fails_on("backend: {max_keyframe_images: 5}\n", "max_keyframe_images");  // < mapping_keyframes
   fails_on("backend: {max_keyframe_points: 100}\n", "max_keyframe_points");  // < max_keyframe_images

@@ -165,12 +165,15 @@ TEST_CASE("Planar yaw prior: zero at the frontend's heading, gradient matches fi
   CHECK_THAT(planar_yaw_prior(p, -3.1, 1.0, nullptr), Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
 }
 
-TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match finite differences",
+TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match finite differences (isotropic and "
+          "split along and across the motion)",
           "[splat][pose]") {
   std::mt19937_64 rng(11);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto random_planar = [&] { return random_planar_pose(rng, 5.0, 0.05); };
-  for (int trial = 0; trial < 20; ++trial) {
+  for (int trial = 0; trial < 40; ++trial) {
+    const double across = trial % 2 == 0 ? 0.0 : 0.002;  // sigma_across_m: off, then 5 x tighter
+    INFO("trial " << trial << ", sigma_across_m " << across);
     const PlanarPose a_odom = random_planar(), b_odom = random_planar();
     // The same relative motion seen from another (rotated, shifted) map frame costs nothing.
     PlanarPose a = a_odom, b = b_odom;
@@ -181,14 +184,14 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
       p->y = s * x + c * y - 2.0;
       p->yaw += turn;
     }
-    CHECK(planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr) < 1e-18);
+    CHECK(planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr, across) < 1e-18);
     // Disturbed: positive, and the analytic gradients of both poses match central differences.
     a.x += 0.05 * u(rng);
     a.yaw += 0.02 * u(rng);
     b.y += 0.05 * u(rng);
     b.yaw += 0.02 * u(rng);
     Eigen::Vector3d ga = Eigen::Vector3d::Zero(), gb = Eigen::Vector3d::Zero();
-    const double loss = planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, &ga, &gb);
+    const double loss = planar_relative_prior(a, b, a_odom, b_odom, 0.01, 0.003, &ga, &gb, across);
     CHECK(loss > 0);
     std::vector<double> analytic, numeric;
     for (int which = 0; which < 2; ++which) {
@@ -197,7 +200,7 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
           PlanarPose pa = a, pb = b;
           PlanarPose& p = which == 0 ? pa : pb;
           (k == 0 ? p.x : k == 1 ? p.y : p.yaw) = value;
-          return planar_relative_prior(pa, pb, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr);
+          return planar_relative_prior(pa, pb, a_odom, b_odom, 0.01, 0.003, nullptr, nullptr, across);
         };
         const PlanarPose& p = which == 0 ? a : b;
         numeric.push_back(central_difference(f, k == 0 ? p.x : k == 1 ? p.y : p.yaw, 1e-6));
@@ -213,6 +216,46 @@ TEST_CASE("Planar relative prior: zero at the frontend's motion, gradients match
   a_odom.yaw = b_odom.yaw = 0.0;
   CHECK_THAT(planar_relative_prior(a, b, a_odom, b_odom, 1.0, 1.0, nullptr, nullptr),
              Catch::Matchers::WithinRel(0.5 * std::pow(2 * std::numbers::pi - 6.2, 2), 1e-9));
+}
+
+TEST_CASE("Planar relative prior: sigma_across_m weighs the error across the frontend's motion, not along it",
+          "[splat][pose]") {
+  using Catch::Matchers::WithinRel;
+  // The frontend moved 0.4 m straight ahead at 30 deg of heading; the optimised b lands 1 cm
+  // off, once along that motion and once across it.
+  PlanarPose a_odom, b_odom;
+  a_odom.yaw = b_odom.yaw = 30.0 * std::numbers::pi / 180.0;
+  b_odom.x = 0.4 * std::cos(a_odom.yaw);
+  b_odom.y = 0.4 * std::sin(a_odom.yaw);
+  const PlanarPose a = a_odom;
+  PlanarPose along = b_odom, across = b_odom;
+  along.x += 0.01 * std::cos(a_odom.yaw);
+  along.y += 0.01 * std::sin(a_odom.yaw);
+  across.x -= 0.01 * std::sin(a_odom.yaw);
+  across.y += 0.01 * std::cos(a_odom.yaw);
+  const double iso = 0.5 * 0.01 * 0.01 / (0.2 * 0.2);
+  CHECK_THAT(planar_relative_prior(a, along, a_odom, b_odom, 0.2, 0.01, nullptr, nullptr, 0.005), WithinRel(iso, 1e-9));
+  CHECK_THAT(planar_relative_prior(a, across, a_odom, b_odom, 0.2, 0.01, nullptr, nullptr, 0.005),
+             WithinRel(0.5 * 0.01 * 0.01 / (0.005 * 0.005), 1e-9));
+  CHECK_THAT(planar_relative_prior(a, across, a_odom, b_odom, 0.2, 0.01, nullptr, nullptr, 0.0), WithinRel(iso, 1e-9));
+  // A keyframe turned against the way it moved (its heading off, not its position): across the
+  // motion that costs (0.4 m x the turn)^2 / sigma_across^2, and the pull on its yaw grows with it.
+  PlanarPose turned_a = a;
+  turned_a.yaw += 0.01;
+  Eigen::Vector3d g_iso = Eigen::Vector3d::Zero(), g_split = Eigen::Vector3d::Zero();
+  planar_relative_prior(turned_a, b_odom, a_odom, b_odom, 0.2, 1.0, &g_iso, nullptr, 0.0);
+  planar_relative_prior(turned_a, b_odom, a_odom, b_odom, 0.2, 1.0, &g_split, nullptr, 0.005);
+  CHECK(g_iso.z() > 0);
+  CHECK(g_split.z() > 1000 * g_iso.z());  // (0.2 / 0.005)^2 = 1600 times, less the rotation term
+  // A turn on the spot (a displacement under kAcrossMinDisplacementM) has no direction: isotropic.
+  PlanarPose spot_b = a_odom, spot_moved = a_odom;
+  spot_b.yaw += 1.0;
+  spot_moved.yaw += 1.0;
+  spot_moved.y += 0.01;
+  CHECK_THAT(planar_relative_prior(a, spot_moved, a_odom, spot_b, 0.2, 0.01, nullptr, nullptr, 0.005),
+             WithinRel(iso, 1e-9));
+  CHECK_THROWS_AS(planar_relative_prior(a, along, a_odom, b_odom, 0.2, 0.01, nullptr, nullptr, -0.001),
+                  std::invalid_argument);
 }
 
 TEST_CASE("Vertical prior: zero at the reference tilt and height, blind to yaw and x, y, gradient matches finite "

@@ -68,7 +68,8 @@ class Pipeline {
  public:
   /// `radar` is the configuration of the live radar (for a recording it is taken from the
   /// recording's first frame and must match). Throws ConfigError / std::runtime_error for a
-  /// source that cannot be opened.
+  /// source that cannot be opened, std::invalid_argument for a stage with
+  /// frontend.whole_run_smoother (unbounded in a running pipeline).
   Pipeline(const DaemonOptions& options, const RadarConfig& radar, const rio::OdometryOptions& stage,
            const splat::BackendOptions& backend, DdsParticipant& dds);
   ~Pipeline();

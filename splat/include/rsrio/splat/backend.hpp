@@ -218,6 +218,11 @@ struct BackendOptions {
   bool odometry_prior = true;
   double odometry_prior_sigma_m = 0.2;
   double odometry_prior_sigma_deg = 1.0;
+  // ... across the frontend's motion between the two keyframes (planar_relative_prior's
+  // sigma_across_m; 0: odometry_prior_sigma_m, isotropic): the direction a keyframe moves in its
+  // own frame is the radar's sideslip, which the frontend measures well, where how far it moves
+  // is what the map corrects.
+  double odometry_prior_across_sigma_m = 0;
   // ... and the frontend's heading itself (planar_yaw_prior; 0: off): the map frame is the odom
   // frame at the first keyframe, so a keyframe's yaw should stay near the frontend's. Without it
   // the yaw of sequences 3 and 4 random-walked by 3-6 deg over a few minutes, either way.

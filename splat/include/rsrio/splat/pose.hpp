@@ -73,9 +73,19 @@ RadarVelocity radar_velocity_from_poses(const Eigen::Isometry3d& radar_T_world_c
 /// heading (gyro, zero-rate updates) drifts by a fraction of a degree over minutes.
 double planar_yaw_prior(const PlanarPose& pose, double yaw_odom, double sigma_rad, Eigen::Vector3d* grad);
 
+/// The shortest frontend displacement that planar_relative_prior splits along and across.
+inline constexpr double kAcrossMinDisplacementM = 0.1;
+
+/// planar_relative_prior (described above): sigma_across_m > 0 splits u along and across the
+/// frontend's displacement b' - a' when that is at least kAcrossMinDisplacementM long (a turn on
+/// the spot has no direction): along it weighs 1 / sigma_translation_m^2, across it
+/// 1 / sigma_across_m^2. Why: what the frontend gets wrong between two keyframes is mostly how far
+/// (its speed, a few per mille), while the direction of the motion in the keyframe's own frame is
+/// the radar's Doppler sideslip, good to a few mm/s; a keyframe turned against the way it moves is
+/// what the images resolve least (its map turns with it). 0: isotropic.
 double planar_relative_prior(const PlanarPose& a, const PlanarPose& b, const PlanarPose& a_odom,
                              const PlanarPose& b_odom, double sigma_translation_m, double sigma_rotation_rad,
-                             Eigen::Vector3d* grad_a, Eigen::Vector3d* grad_b);
+                             Eigen::Vector3d* grad_a, Eigen::Vector3d* grad_b, double sigma_across_m = 0);
 
 /// What a 6-DoF pose may not leave: the frontend's tilt and the floor's height. The images hardly
 /// see roll, pitch and z (elevation is marginalised), where the frontend's gravity-referenced tilt
