@@ -499,6 +499,7 @@ int main(int argc, char** argv) {
   {
     std::ostringstream s;
     rsrio::rio::print(s, options);
+    if (backend_name == "ba") rsrio::splat::print(s, backend_options);
     spdlog::info("options (--config {}):\n{}", cli.config_path().empty() ? "none: defaults" : cli.config_path(), s.str());
   }
 

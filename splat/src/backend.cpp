@@ -1021,7 +1021,7 @@ void Backend::align_revisit(std::size_t k) {
   for (std::size_t i = 0; i < keyframes_.size(); ++i) before[i] = planar3(keyframes_[i].world_T_radar);
   std::vector<Eigen::Vector3d> after;
   try {
-    after = close_loops(before, loops_, PoseGraphOptions{});
+    after = close_loops(before, loops_, options_.loop_graph);
   } catch (const std::exception&) {
     // GTSAM refused the graph (an indeterminate system): the loop is dropped, nothing moves.
     loops_.pop_back();

@@ -142,6 +142,17 @@ BackendOptions load_backend_options(OptionsNode node) {
     o.loop.max_query_points = static_cast<std::size_t>(max_query);
     m.finish();
   }
+  {
+    OptionsNode g = node.child("loop_graph");
+    g.read("odometry_sigma_m", o.loop_graph.odometry_sigma_m, {1e-6, 100.0});
+    g.read("odometry_sigma_deg", o.loop_graph.odometry_sigma_deg, {1e-6, 180.0});
+    g.read("loop_sigma_m", o.loop_graph.loop_sigma_m, {1e-6, 100.0});
+    g.read("loop_sigma_deg", o.loop_graph.loop_sigma_deg, {1e-6, 180.0});
+    int max_keyframes = static_cast<int>(o.loop_graph.max_keyframes);
+    g.read("max_keyframes", max_keyframes, {0, 1'000'000});
+    o.loop_graph.max_keyframes = static_cast<std::size_t>(max_keyframes);
+    g.finish();
+  }
   node.finish();
   validate(o, node.file());
   return o;
@@ -247,7 +258,11 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  loop_match: {search_m: " << o.loop.search_m << ", search_deg: " << o.loop.search_deg
       << ", cell_m: " << o.loop.cell_m << ", step_deg: " << o.loop.step_deg << ", sigma_m: " << o.loop.sigma_m
       << ", near_best_fraction: " << o.loop.near_best_fraction << ", max_query_points: " << o.loop.max_query_points
-      << "}\n";
+      << "}\n"
+      << "  loop_graph: {odometry_sigma_m: " << o.loop_graph.odometry_sigma_m
+      << ", odometry_sigma_deg: " << o.loop_graph.odometry_sigma_deg
+      << ", loop_sigma_m: " << o.loop_graph.loop_sigma_m << ", loop_sigma_deg: " << o.loop_graph.loop_sigma_deg
+      << ", max_keyframes: " << o.loop_graph.max_keyframes << "}\n";
 }
 
 void validate(const BackendOptions& o, const std::string& file) {
@@ -285,6 +300,10 @@ void validate(const BackendOptions& o, const std::string& file) {
   if (!(o.loop.search_deg >= 0 && o.loop.search_deg / o.loop.step_deg <= 200))
     fail("loop_match.search_deg", "a number >= 0, at most 200 step_deg steps");
   if (o.loop.max_query_points < 1) fail("loop_match.max_query_points", "an integer >= 1");
+  if (!(o.loop_graph.odometry_sigma_m > 0)) fail("loop_graph.odometry_sigma_m", "a number > 0");
+  if (!(o.loop_graph.odometry_sigma_deg > 0)) fail("loop_graph.odometry_sigma_deg", "a number > 0");
+  if (!(o.loop_graph.loop_sigma_m > 0)) fail("loop_graph.loop_sigma_m", "a number > 0");
+  if (!(o.loop_graph.loop_sigma_deg > 0)) fail("loop_graph.loop_sigma_deg", "a number > 0");
   if (!(o.loop_retry_search_m >= 0 && o.loop_retry_search_m / o.loop.cell_m <= 200))
     fail("loop_retry_search_m", "a number >= 0, at most 200 loop_match.cell_m steps");
   if (!(o.loop_retry_search_deg >= 0 && o.loop_retry_search_deg / o.loop.step_deg <= 200))

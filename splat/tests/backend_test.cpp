@@ -164,6 +164,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  occlusion_threshold: 0.5\n"
       "  occlusion_margin_m: 0.3\n"
       "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n"
+      "  loop_graph: {odometry_sigma_deg: 0.05, loop_sigma_deg: 0.5, max_keyframes: 0}\n"
       "  final_ba: {max_iterations: 80}\n");
   CHECK(o.mapping_keyframes == 7);
   CHECK(o.final_ba.max_iterations == 80);
@@ -188,6 +189,10 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.loop.search_m == 1.5);
   CHECK(o.loop.sigma_m == 0.1);
   CHECK(o.loop.cell_m == PlanarMatchOptions{}.cell_m);
+  CHECK(o.loop_graph.odometry_sigma_deg == 0.05);
+  CHECK(o.loop_graph.loop_sigma_deg == 0.5);
+  CHECK(o.loop_graph.max_keyframes == 0);
+  CHECK(o.loop_graph.odometry_sigma_m == PoseGraphOptions{}.odometry_sigma_m);
   CHECK(o.ba_window == "sliding");
   CHECK(o.ba_sliding_keyframes == 5);
   CHECK_FALSE(o.rd_loss);
@@ -243,6 +248,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_match: {cell: 0.1}}\n", "cell");
   fails_on("backend: {loop_match: {search_m: 20, cell_m: 0.01}}\n", "search_m");  // 2000 steps
   fails_on("backend: {loop_match: {search_deg: 50, step_deg: 0.1}}\n", "search_deg");  // 500 steps
+  fails_on("backend: {loop_graph: {odometry_sigma_deg: -0.01}}\n", "odometry_sigma_deg");
+  fails_on("backend: {loop_graph: {loop_sigma_m: 0}}\n", "loop_sigma_m");
+  fails_on("backend: {loop_graph: {odometry_sigma: 0.1}}\n", "odometry_sigma");
   fails_on("backend: {loop_min_score: 2}\n", "loop_min_score");
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
   fails_on("backend: {loop_retry_search_m: 20}\n", "loop_retry_search_m");      // 400 cells of 5 cm
@@ -253,6 +261,9 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   BackendOptions wide_beam;
   wide_beam.rd_elevation_sigma_sin = 0.7;
   CHECK_THROWS_AS(validate(wide_beam), rsrio::ConfigError);
+  BackendOptions flat_graph;
+  flat_graph.loop_graph.odometry_sigma_deg = 0;
+  CHECK_THROWS_AS(validate(flat_graph), rsrio::ConfigError);
   BackendOptions no_query;
   no_query.loop.max_query_points = 0;
   CHECK_THROWS_AS(validate(no_query), rsrio::ConfigError);

@@ -5,35 +5,18 @@
 // of that row failed at start-up.
 #include <catch2/catch_test_macros.hpp>
 
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "../ablation_variants.hpp"
-#include "rsrio/common/options.hpp"
-#include "rsrio/runtime/estimator_options.hpp"
+#include "replay_options.hpp"
 #include "scratch_dir.hpp"
 
 namespace {
 
-std::string shipped_options() {
-  std::ifstream f("config/rsrio.yaml");
-  REQUIRE(f.good());
-  std::stringstream text;
-  text << f.rdbuf();
-  return text.str();
-}
+std::string shipped_options() { return rsrio::testing::file_text("config/rsrio.yaml"); }
 
-// What rsrio-replay reads from its --config file: rsrio::load_program_config's log_level (not
-// called itself: it registers a logger, once a process) and the estimator's sections, strictly.
 rsrio::splat::BackendOptions load_as_replay(const std::string& path) {
-  rsrio::OptionsFile file(path);
-  rsrio::OptionsNode root = file.root();
-  std::string level = "info";
-  root.read_choice("log_level", level, {"trace", "debug", "info", "warn", "error", "critical", "off"});
-  const rsrio::EstimatorOptions options = rsrio::load_estimator_options(root);
-  root.finish();
-  return options.backend;
+  return rsrio::testing::load_as_replay(path).backend;
 }
 
 }  // namespace

@@ -277,6 +277,9 @@ struct BackendOptions {
   // for steps of millimetres around a pose the frontend already gives to centimetres.
   double loop_lr_pose_translation = 0.01;
   PlanarMatchOptions loop;
+  // The pose graph that spreads an accepted match along the chain (loop_closure.hpp's
+  // PoseGraphOptions: the odometry edges' and the loops' sigmas, the graph's keyframe bound).
+  PoseGraphOptions loop_graph;
   // A revisit beyond loop_match's window: a frontend whose heading drifts by a few hundredths of
   // a degree a second comes back several degrees off after a loop of a few minutes, where the
   // window's best candidate lies on the window's edge or explains little of the points. When it
