@@ -29,6 +29,7 @@ std::set<std::string> differing_keys(const rsrio::EstimatorOptions& a, const rsr
     for (const std::string& line : from) {
       if (other.count(line) == from.count(line)) continue;
       const std::size_t first = line.find_first_not_of(' ');
+      if (first == std::string::npos) continue;  // a blank line is no key
       keys.insert(line.substr(first, line.find(':') - first));
     }
   };
