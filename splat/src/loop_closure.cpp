@@ -166,6 +166,8 @@ Eigen::Vector3d planar_between(const Eigen::Vector3d& a, const Eigen::Vector3d& 
 
 std::vector<Eigen::Vector3d> close_loops(std::span<const Eigen::Vector3d> poses, std::span<const LoopConstraint> loops,
                                          const PoseGraphOptions& o) {
+  if (!(o.odometry_sigma_m > 0) || !(o.odometry_sigma_deg > 0) || !(o.loop_sigma_m > 0) || !(o.loop_sigma_deg > 0))
+    throw std::invalid_argument("close_loops: sigmas must be positive");
   std::vector<Eigen::Vector3d> out(poses.begin(), poses.end());
   if (loops.empty()) return out;
   std::size_t first = poses.size();
@@ -176,8 +178,6 @@ std::vector<Eigen::Vector3d> close_loops(std::span<const Eigen::Vector3d> poses,
   }
   if (o.max_keyframes > 0 && poses.size() > o.max_keyframes)
     first = std::max(first, std::min(loops.back().from, poses.size() - o.max_keyframes));
-  if (!(o.odometry_sigma_m > 0) || !(o.odometry_sigma_deg > 0) || !(o.loop_sigma_m > 0) || !(o.loop_sigma_deg > 0))
-    throw std::invalid_argument("close_loops: sigmas must be positive");
   using gtsam::symbol_shorthand::X;
   gtsam::NonlinearFactorGraph graph;
   gtsam::Values values;

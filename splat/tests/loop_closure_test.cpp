@@ -263,4 +263,5 @@ TEST_CASE("close_loops: loose heading edges take a length misfit as turns, tight
   PoseGraphOptions bad;
   bad.loop_sigma_deg = 0;
   CHECK_THROWS_AS(close_loops(l.drifted, loop, bad), std::invalid_argument);
+  CHECK_THROWS_AS(close_loops(l.drifted, {}, bad), std::invalid_argument);  // before there is a loop too
 }
