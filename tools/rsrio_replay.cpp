@@ -758,7 +758,9 @@ int main(int argc, char** argv) {
          << ", \"loop_rejected_ambiguous\": " << st.loop_rejected_ambiguous
          << ", \"loop_below_threshold\": " << st.loop_below_threshold
          << ", \"loop_rejected_refinement\": " << st.loop_rejected_refinement
-         << ", \"loop_retries\": " << st.loop_retries << "}";
+         << ", \"loop_retries\": " << st.loop_retries << ", \"reference_gaussians\": " << st.reference_gaussians
+         << ", \"loop_frozen_alignments\": " << st.loop_frozen_alignments
+         << "}";
     }
     js << "\n}\n";
     if (!js) throw std::runtime_error(path("stats.json") + ": write failed");

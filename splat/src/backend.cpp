@@ -151,6 +151,7 @@ Backend::Backend(const RadarConfig& config, const rsrio::DspGrids& grids, const 
   so.max_gaussians = static_cast<std::size_t>(options_.max_gaussians);
   so.view_returns = options_.view_dependent_return;
   scene_ = GaussianScene(so);
+  reference_ = GaussianScene(so);
   SplatAdamOptions ao;
   ao.lr_means = options_.lr_means;
   ao.lr_rotations = options_.lr_rotations;
@@ -377,10 +378,12 @@ bool Backend::add_frame(const BackendFrame& frame) {
     run_stage(window, ba_poses, true, true, options_.ba, options_.ba.max_iterations, stats_.ba);
   }
   cleanup_scene();
+  freeze_reference();
   evict_keyframe_data();
   drop_bare_keyframes();
   update_correction();
   stats_.gaussians = scene_.size();
+  stats_.reference_gaussians = reference_.size();
   return true;
 }
 
@@ -830,8 +833,9 @@ void Backend::drop_bare_keyframes() {
       ++out;
     }
   keyframes_.resize(out);  // no reallocation: the capacity stays, bounded by the cap
-  for (std::int32_t& a : anchors_)
-    if (a >= 0) a = static_cast<std::int32_t>(new_index[static_cast<std::size_t>(a)]);
+  for (std::vector<std::int32_t>* anchors : {&anchors_, &reference_anchors_})
+    for (std::int32_t& a : *anchors)
+      if (a >= 0) a = static_cast<std::int32_t>(new_index[static_cast<std::size_t>(a)]);
   std::erase_if(loops_, [&](const LoopConstraint& l) { return new_index[l.from] < 0 || new_index[l.to] < 0; });
   for (LoopConstraint& l : loops_) {
     l.from = static_cast<std::size_t>(new_index[l.from]);
@@ -915,13 +919,46 @@ void Backend::mask_uncovered_targets(std::size_t k, const std::vector<char>* dra
   mask_uncovered(ra_c, rd_c, knee(0, 0), options_.coverage_margin_bins, kf.ra_target, kf.rd_target);
 }
 
+namespace {
+// Per Gaussian, its keyframe, after a structural change of its scene.
+void remap_anchors(const SceneRemap& remap, std::vector<std::int32_t>& anchors) {
+  std::vector<std::int32_t> out(remap.size(), -1);
+  for (std::size_t i = 0; i < remap.size(); ++i)
+    if (remap[i] >= 0 && static_cast<std::size_t>(remap[i]) < anchors.size())
+      out[i] = anchors[static_cast<std::size_t>(remap[i])];
+  anchors = std::move(out);
+}
+}  // namespace
+
 void Backend::remap_scene(const SceneRemap& remap) {
   scene_adam_.remap_scene(remap);
-  std::vector<std::int32_t> anchors(remap.size(), -1);
-  for (std::size_t i = 0; i < remap.size(); ++i)
-    if (remap[i] >= 0 && static_cast<std::size_t>(remap[i]) < anchors_.size())
-      anchors[i] = anchors_[static_cast<std::size_t>(remap[i])];
-  anchors_ = std::move(anchors);
+  remap_anchors(remap, anchors_);
+}
+
+void Backend::freeze_reference() {
+  if (!options_.loop_closure || !options_.loop_frozen_reference) return;
+  const Keyframe& newest = keyframes_.back();
+  const double d2 = options_.loop_freeze_distance_m * options_.loop_freeze_distance_m;
+  std::vector<char> freeze(keyframes_.size(), 0);
+  bool any = false;
+  for (std::size_t i = 0; i < keyframes_.size(); ++i) {
+    Keyframe& kf = keyframes_[i];
+    if (kf.reference_frozen || newest.t - kf.t < options_.loop_min_age_s ||
+        (kf.world_T_radar.translation() - newest.world_T_radar.translation()).head<2>().squaredNorm() < d2)
+      continue;
+    kf.reference_frozen = true;
+    freeze[i] = 1;
+    any = true;
+  }
+  if (!any) return;
+  for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g) {
+    const std::int32_t a = anchors_[g];
+    if (a < 0 || !freeze[static_cast<std::size_t>(a)]) continue;
+    reference_.copy_from(scene_, g);
+    reference_anchors_.push_back(a);
+  }
+  if (reference_.size() > static_cast<std::size_t>(options_.max_gaussians))
+    remap_anchors(reference_.enforce_cap(keyframes_.back().world_T_radar.translation()), reference_anchors_);
 }
 
 void Backend::align_revisit(std::size_t k) {
@@ -992,14 +1029,37 @@ void Backend::align_revisit(std::size_t k) {
   // (no RD: its velocity would see the jump from the previous keyframe; no odometry priors: they
   // hold the pose to the drifted chain).
   const Eigen::Isometry3d start = C * newest.world_T_radar, drifted = newest.world_T_radar;
-  std::vector<char> earlier(scene_.size(), 0);
-  for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g)
-    earlier[g] = anchors_[g] >= 0 && newest.t - keyframes_[static_cast<std::size_t>(anchors_[g])].t >= options_.loop_min_age_s;
+  const bool frozen = options_.loop_frozen_reference && keyframes_[old.front().second].reference_frozen;
+  std::vector<char> earlier;
+  if (!frozen) {
+    earlier.assign(scene_.size(), 0);
+    for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g)
+      earlier[g] =
+          anchors_[g] >= 0 && newest.t - keyframes_[static_cast<std::size_t>(anchors_[g])].t >= options_.loop_min_age_s;
+  }
+  const std::vector<char>* drawable = frozen ? nullptr : &earlier;
+  stats_.loop_frozen_alignments += frozen ? 1 : 0;
   newest.world_T_radar = start;
   const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
-  if (options_.pose_coverage_mask) mask_uncovered_targets(k, &earlier);
-  run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, &earlier, false,
-            options_.loop_lr_pose_translation);
+  {
+    // loop_frozen_reference: the stage renders the frozen copy in the live map's place (a
+    // pose-only stage reads the scene and changes nothing in it); swapped back however it ends.
+    struct Swap {
+      GaussianScene &a, &b;
+      bool on;
+      Swap(GaussianScene& x, GaussianScene& y, bool swap) : a(x), b(y), on(swap) {
+        if (on) std::swap(a, b);
+      }
+      ~Swap() {
+        if (on) std::swap(a, b);
+      }
+      Swap(const Swap&) = delete;
+      Swap& operator=(const Swap&) = delete;
+    } use_reference(scene_, reference_, frozen);
+    if (options_.pose_coverage_mask) mask_uncovered_targets(k, drawable);
+    run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, drawable,
+              false, options_.loop_lr_pose_translation);
+  }
   const Eigen::Isometry3d aligned = newest.world_T_radar;
   newest.world_T_radar = drifted;
   newest.ra_target = ra_target;
@@ -1042,21 +1102,26 @@ void Backend::align_revisit(std::size_t k) {
     keyframes_[i].world_T_radar = D * keyframes_[i].world_T_radar;
     keyframes_[i].loop_yaw += dyaw;
   }
-  std::span<double> means = scene_.mutable_means();
-  std::span<double> rotations = scene_.mutable_rotations();
-  for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g) {
-    if (anchors_[g] < 0) continue;
-    const Eigen::Isometry3d& D = moves[static_cast<std::size_t>(anchors_[g])];
-    Eigen::Map<Eigen::Vector3d> mu(&means[3 * g]);
-    mu = D * Eigen::Vector3d(mu);
-    const Eigen::Quaterniond r(D.linear());
-    double* qs = &rotations[4 * g];
-    const Eigen::Quaterniond moved = r * Eigen::Quaterniond(qs[0], qs[1], qs[2], qs[3]);
-    qs[0] = moved.w();
-    qs[1] = moved.x();
-    qs[2] = moved.y();
-    qs[3] = moved.z();
-  }
+  // The frozen copy too: it is the earlier pass's map in the corrected frame.
+  const auto move_gaussians = [&](GaussianScene& scene, const std::vector<std::int32_t>& anchors) {
+    std::span<double> means = scene.mutable_means();
+    std::span<double> rotations = scene.mutable_rotations();
+    for (std::size_t g = 0; g < scene.size() && g < anchors.size(); ++g) {
+      if (anchors[g] < 0) continue;
+      const Eigen::Isometry3d& D = moves[static_cast<std::size_t>(anchors[g])];
+      Eigen::Map<Eigen::Vector3d> mu(&means[3 * g]);
+      mu = D * Eigen::Vector3d(mu);
+      const Eigen::Quaterniond r(D.linear());
+      double* qs = &rotations[4 * g];
+      const Eigen::Quaterniond moved = r * Eigen::Quaterniond(qs[0], qs[1], qs[2], qs[3]);
+      qs[0] = moved.w();
+      qs[1] = moved.x();
+      qs[2] = moved.y();
+      qs[3] = moved.z();
+    }
+  };
+  move_gaussians(scene_, anchors_);
+  move_gaussians(reference_, reference_anchors_);
   ++stats_.loop_closures;
 }
 

@@ -118,6 +118,13 @@ void GaussianScene::push_raw(const double* mean, const double* rotation, const d
   index_stale_ = true;
 }
 
+void GaussianScene::copy_from(const GaussianScene& other, std::size_t i) {
+  if (i >= other.size()) throw std::out_of_range("GaussianScene::copy_from: no such Gaussian");
+  const bool view = options_.view_returns && other.options_.view_returns;
+  push_raw(&other.means_[3 * i], &other.rotations_[4 * i], &other.log_scales_[3 * i], other.log_returns_[i],
+           view ? &other.view_returns_[kViewTerms * i] : nullptr);
+}
+
 bool GaussianScene::add(const Eigen::Vector3d& mean, const Eigen::Quaterniond& rotation,
                         const Eigen::Vector3d& log_scale, double log_return) {
   const double q[4] = {rotation.w(), rotation.x(), rotation.y(), rotation.z()};

@@ -153,6 +153,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
+      "  loop_frozen_reference: true\n"
+      "  loop_freeze_distance_m: 7.5\n"
       "  loop_retry_search_m: 2.0\n"
       "  loop_retry_search_deg: 12\n"
       "  range_falloff_exponent: 4\n"
@@ -172,6 +174,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
+  CHECK(o.loop_frozen_reference);
+  CHECK(o.loop_freeze_distance_m == 7.5);
   CHECK(o.loop_retry_search_m == 2.0);
   CHECK(o.loop_retry_search_deg == 12);
   CHECK(o.range_falloff_exponent == 4);
@@ -1498,4 +1502,58 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   CHECK(yaw_retry < 0.5 * yaw_narrow);
   CHECK(err_retry < 0.5 * err_narrow);
   CHECK(retry_stats.nan_guard_hits == 0);
+
+  // The alignment against the frozen copy of the first pass's Gaussians (loop_frozen_reference,
+  // each keyframe's copied once the walk is 1 m past it), with the bare keyframes dropped too
+  // (the copy's anchors renumbered with the scene's).
+  BackendStats frozen_stats, frozen_dropped_stats, never_frozen_stats;
+  Errors mean_frozen, mean_frozen_dropped, mean_never_frozen;
+  const auto frozen = [](BackendOptions& o) {
+    o.loop_frozen_reference = true;
+    o.loop_freeze_distance_m = 1.0;
+  };
+  const auto [err_frozen, yaw_frozen] = walk(true, frozen_stats, mean_frozen, false, BackendOptions{}.max_keyframe_points,
+                                             BackendOptions{}.max_keyframes, frozen);
+  const auto [err_frozen_dropped, yaw_frozen_dropped] =
+      walk(true, frozen_dropped_stats, mean_frozen_dropped, true, 6, 7, frozen);
+  std::printf("out-and-back walk, aligned against the frozen copy: final keyframe error %.3f m / %.2f deg (%llu loops, "
+              "%zu Gaussians in the copy); bare keyframes dropped as well %.3f m / %.2f deg (%llu loops, %llu of them "
+              "against the copy, %llu keyframes dropped)\n",
+              err_frozen, yaw_frozen, static_cast<unsigned long long>(frozen_stats.loop_closures),
+              frozen_stats.reference_gaussians, err_frozen_dropped, yaw_frozen_dropped,
+              static_cast<unsigned long long>(frozen_dropped_stats.loop_closures),
+              static_cast<unsigned long long>(frozen_dropped_stats.loop_frozen_alignments),
+              static_cast<unsigned long long>(frozen_dropped_stats.keyframes_dropped));
+  CHECK(without_stats.reference_gaussians == 0);
+  CHECK(with_stats.reference_gaussians == 0);  // off by default: no copy
+  CHECK(frozen_stats.reference_gaussians > 0);
+  CHECK(frozen_stats.reference_gaussians <= frozen_stats.gaussians_added);
+  CHECK(frozen_stats.loop_frozen_alignments >= 1);
+  CHECK(frozen_stats.loop_alignment.iterations > 0);  // the alignment drew the copy (an empty one stops it at once)
+  CHECK(frozen_stats.loop_closures >= 1);
+  CHECK(yaw_frozen < 0.5 * yaw_without);
+  CHECK(err_frozen < err_without);
+  CHECK(mean_frozen.revised < mean_without.revised);
+  CHECK(frozen_stats.nan_guard_hits == 0);
+  CHECK(frozen_dropped_stats.keyframes_dropped > 0);
+  // Here the earlier keyframes that keep their points lie within a metre of the way back, so
+  // the alignments draw the live map; the copy is made, renumbered when keyframes go and moved by
+  // the loops (the sanitizer build checks its anchors index the keyframes).
+  CHECK(frozen_dropped_stats.reference_gaussians > 0);
+  CHECK(frozen_dropped_stats.loop_closures >= 1);
+  CHECK(err_frozen_dropped < err_without);
+  CHECK(frozen_dropped_stats.nan_guard_hits == 0);
+  // A walk that never gets loop_freeze_distance_m from a keyframe freezes none: the alignment
+  // draws the live map's earlier Gaussians, as without the option, to the last digit.
+  const auto [err_never_frozen, yaw_never_frozen] =
+      walk(true, never_frozen_stats, mean_never_frozen, false, BackendOptions{}.max_keyframe_points,
+           BackendOptions{}.max_keyframes, [](BackendOptions& o) {
+             o.loop_frozen_reference = true;
+             o.loop_freeze_distance_m = 3.0;
+           });
+  CHECK(never_frozen_stats.reference_gaussians == 0);
+  CHECK(never_frozen_stats.loop_frozen_alignments == 0);
+  CHECK(err_never_frozen == err_with);
+  CHECK(yaw_never_frozen == yaw_with);
+  CHECK(mean_never_frozen.revised == mean_with.revised);
 }

@@ -248,3 +248,35 @@ TEST_CASE("SceneGradients: zero_rows and all_finite(rows) touch only the listed 
   g.view_returns[kViewTerms * 4 + 3] = std::numeric_limits<double>::quiet_NaN();
   CHECK_FALSE(g.all_finite(std::vector<std::uint32_t>{0, 4}));
 }
+
+TEST_CASE("copy_from copies a Gaussian's parameters exactly, view terms only into a scene that has them",
+          "[splat][scene]") {
+  SceneOptions with_view;
+  with_view.view_returns = true;
+  GaussianScene source(with_view);
+  const Eigen::Quaterniond q = Eigen::Quaterniond(0.9, 0.1, -0.3, 0.2).normalized();
+  source.add(Eigen::Vector3d(1, 2, 3), Eigen::Quaterniond::Identity(), Eigen::Vector3d::Constant(std::log(0.1)), 0.0);
+  source.add(Eigen::Vector3d(-4, 5, 0.5), q, Eigen::Vector3d(std::log(0.3), std::log(0.05), std::log(0.2)), -1.5);
+  const double terms[kViewTerms] = {0.1, -0.2, 0.3, -0.4};
+  std::copy_n(terms, kViewTerms, source.mutable_view_returns().begin() + kViewTerms);
+
+  GaussianScene copy(with_view), plain{SceneOptions{}};
+  copy.copy_from(source, 1);
+  plain.copy_from(source, 1);
+  for (const GaussianScene* s : {&copy, &plain}) {
+    REQUIRE(s->size() == 1);
+    CHECK(s->mean(0) == source.mean(1));
+    CHECK(s->rotation(0).coeffs() == source.rotation(1).coeffs());
+    CHECK(s->scale(0) == source.scale(1));
+    CHECK(s->return_ratio(0) == source.return_ratio(1));
+  }
+  CHECK(std::equal(copy.view_returns().begin(), copy.view_returns().end(), terms));
+  CHECK(plain.view_returns().empty());
+  // The copy is its own: changing the source leaves it as it was.
+  source.mutable_means()[3] = 7;
+  CHECK(copy.mean(0).x() == -4);
+  std::vector<std::uint32_t> near;
+  copy.query_radius(Eigen::Vector3d(-4, 5, 0.5), 0.1, near);
+  CHECK(near == std::vector<std::uint32_t>{0});
+  CHECK_THROWS_AS(copy.copy_from(source, 2), std::out_of_range);
+}

@@ -276,6 +276,17 @@ struct BackendOptions {
   // cover loop_max_refinement_m (40 x 1 cm), where the stages' own lr_pose_translation is set
   // for steps of millimetres around a pose the frontend already gives to centimetres.
   double loop_lr_pose_translation = 0.01;
+  // What that alignment renders. false: the live map's Gaussians anchored to earlier-pass
+  // keyframes. true: where the nearest earlier keyframe has been frozen, a frozen copy of them:
+  // each keyframe's Gaussians copied when it is first loop_freeze_distance_m from the newest
+  // keyframe and loop_min_age_s old (the pass that made it has left), and moved with it by later
+  // loop closures. On the way back the current pass's mapping and BA (r_BA = 10 m reaches the
+  // earlier pass before loop_radius_m does) fit the earlier pass's Gaussians to the drifted
+  // poses, and the alignment then finds the drift agrees with the map (splat/RESULTS.md,
+  // "Sequence 4's first 40 s"); the copy is the earlier pass's map as that pass left it. Costs a
+  // second scene of at most max_gaussians.
+  bool loop_frozen_reference = false;
+  double loop_freeze_distance_m = 10.0;
   PlanarMatchOptions loop;
   // The pose graph that spreads an accepted match along the chain (loop_closure.hpp's
   // PoseGraphOptions: the odometry edges' and the loops' sigmas, the graph's keyframe bound).
@@ -372,6 +383,8 @@ struct BackendStats {
   std::uint64_t loop_rejected_refinement = 0;  // the image alignment moved the match too far, or the graph failed
   std::uint64_t loop_retries = 0;  // matches tried again over the wider window (loop_retry_search_*)
   std::size_t gaussians = 0;
+  std::size_t reference_gaussians = 0;  // loop_frozen_reference's copy
+  std::uint64_t loop_frozen_alignments = 0;  // revisit alignments that drew the copy
   double rd_gain = 0;
   StageStats pose, mapping, ba;
   StageStats final_ba;        // Backend::finish
@@ -398,6 +411,7 @@ struct Keyframe {
   // velocity_correction alone (frozen at what it was), and no odometry pair prior ties it to the
   // keyframe now before it.
   bool chain_start = false;
+  bool reference_frozen = false;  // its Gaussians are in the revisit alignment's frozen copy
   bool has_images() const { return ra.size() > 0; }  // false once evicted (max_keyframe_images)
 };
 
@@ -600,6 +614,10 @@ class Backend {
   void align_revisit(std::size_t k);
   /// The scene's structure changed: the optimiser's state and the anchors follow.
   void remap_scene(const SceneRemap& remap);
+  /// loop_frozen_reference: copies the Gaussians of the keyframes that have just been left
+  /// (loop_freeze_distance_m, loop_min_age_s) into reference_ (capped as the scene, around the
+  /// newest keyframe).
+  void freeze_reference();
 
   BackendOptions options_;
   RadarImageGrid grid_;                // the DSP's grid, cut at max_image_range_m
@@ -613,6 +631,8 @@ class Backend {
   std::vector<Keyframe> keyframes_;
   std::vector<std::int32_t> anchors_;  // per Gaussian: the keyframe that created it (loop corrections move it with it)
   std::vector<LoopConstraint> loops_;
+  GaussianScene reference_;                       // loop_frozen_reference: the frozen copy
+  std::vector<std::int32_t> reference_anchors_;  // per Gaussian of reference_: its keyframe
   std::size_t last_loop_attempt_ = 0;
   double floor_z_ = 0;  // the first keyframe's radar height (level_floor)
   OdomCorrection correction_;

@@ -143,6 +143,9 @@ class GaussianScene {
   /// zero quaternion. `rotation` need not be normalised.
   bool add(const Eigen::Vector3d& mean, const Eigen::Quaterniond& rotation,
            const Eigen::Vector3d& log_scale, double log_return);
+  /// Appends a copy of Gaussian i of `other` as it is (its view terms when both scenes have
+  /// them, else none); no cap check.
+  void copy_from(const GaussianScene& other, std::size_t i);
   /// Gaussians at 3-D points (e.g. the CFAR points of a keyframe, in the world frame),
   /// isotropic, identity rotation; then the cap is enforced around `eviction_center`.
   SceneRemap add_points(std::span<const Eigen::Vector3d> points, const AddPointsOptions& add_options,
