@@ -961,6 +961,50 @@ void Backend::freeze_reference() {
     remap_anchors(reference_.enforce_cap(keyframes_.back().world_T_radar.translation()), reference_anchors_);
 }
 
+Eigen::Isometry3d Backend::align_to_earlier_pass(std::size_t k, const Eigen::Isometry3d& start, std::size_t nearest) {
+  // Pose-refinement iterations of keyframe k's RA image against the earlier pass's Gaussians
+  // alone, started at `start` (no RD: its velocity would see the jump from the previous keyframe;
+  // no odometry priors: they hold the pose to the drifted chain); the keyframe is left as it was.
+  Keyframe& newest = keyframes_[k];
+  const Eigen::Isometry3d drifted = newest.world_T_radar;
+  const bool frozen = options_.loop_frozen_reference && keyframes_[nearest].reference_frozen;
+  std::vector<char> earlier;
+  if (!frozen) {
+    earlier.assign(scene_.size(), 0);
+    for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g)
+      earlier[g] =
+          anchors_[g] >= 0 && newest.t - keyframes_[static_cast<std::size_t>(anchors_[g])].t >= options_.loop_min_age_s;
+  }
+  const std::vector<char>* drawable = frozen ? nullptr : &earlier;
+  stats_.loop_frozen_alignments += frozen ? 1 : 0;
+  newest.world_T_radar = start;
+  const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
+  {
+    // loop_frozen_reference: the stage renders the frozen copy in the live map's place (a
+    // pose-only stage reads the scene and changes nothing in it); swapped back however it ends.
+    struct Swap {
+      GaussianScene &a, &b;
+      bool on;
+      Swap(GaussianScene& x, GaussianScene& y, bool swap) : a(x), b(y), on(swap) {
+        if (on) std::swap(a, b);
+      }
+      ~Swap() {
+        if (on) std::swap(a, b);
+      }
+      Swap(const Swap&) = delete;
+      Swap& operator=(const Swap&) = delete;
+    } use_reference(scene_, reference_, frozen);
+    if (options_.pose_coverage_mask) mask_uncovered_targets(k, drawable);
+    run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, drawable,
+              false, options_.loop_lr_pose_translation);
+  }
+  const Eigen::Isometry3d aligned = newest.world_T_radar;
+  newest.world_T_radar = drifted;
+  newest.ra_target = ra_target;
+  newest.rd_target = rd_target;
+  return aligned;
+}
+
 void Backend::align_revisit(std::size_t k) {
   if (last_loop_attempt_ > 0 && k < last_loop_attempt_ + static_cast<std::size_t>(options_.loop_every_keyframes)) return;
   Keyframe& newest = keyframes_[k];
@@ -1024,46 +1068,12 @@ void Backend::align_revisit(std::size_t k) {
     return;
   }
   // The match's correction is good to a few tenths of a degree (its field is 15 cm wide and the
-  // two passes see the walls from different places); the constraint takes the newest keyframe's
-  // pose from its RA image aligned against the earlier pass's Gaussians alone, started there
-  // (no RD: its velocity would see the jump from the previous keyframe; no odometry priors: they
-  // hold the pose to the drifted chain).
-  const Eigen::Isometry3d start = C * newest.world_T_radar, drifted = newest.world_T_radar;
-  const bool frozen = options_.loop_frozen_reference && keyframes_[old.front().second].reference_frozen;
-  std::vector<char> earlier;
-  if (!frozen) {
-    earlier.assign(scene_.size(), 0);
-    for (std::size_t g = 0; g < scene_.size() && g < anchors_.size(); ++g)
-      earlier[g] =
-          anchors_[g] >= 0 && newest.t - keyframes_[static_cast<std::size_t>(anchors_[g])].t >= options_.loop_min_age_s;
-  }
-  const std::vector<char>* drawable = frozen ? nullptr : &earlier;
-  stats_.loop_frozen_alignments += frozen ? 1 : 0;
-  newest.world_T_radar = start;
-  const Image<float> ra_target = newest.ra_target, rd_target = newest.rd_target;
-  {
-    // loop_frozen_reference: the stage renders the frozen copy in the live map's place (a
-    // pose-only stage reads the scene and changes nothing in it); swapped back however it ends.
-    struct Swap {
-      GaussianScene &a, &b;
-      bool on;
-      Swap(GaussianScene& x, GaussianScene& y, bool swap) : a(x), b(y), on(swap) {
-        if (on) std::swap(a, b);
-      }
-      ~Swap() {
-        if (on) std::swap(a, b);
-      }
-      Swap(const Swap&) = delete;
-      Swap& operator=(const Swap&) = delete;
-    } use_reference(scene_, reference_, frozen);
-    if (options_.pose_coverage_mask) mask_uncovered_targets(k, drawable);
-    run_stage({k}, {k}, false, false, options_.pose, options_.pose.max_iterations, stats_.loop_alignment, drawable,
-              false, options_.loop_lr_pose_translation);
-  }
-  const Eigen::Isometry3d aligned = newest.world_T_radar;
-  newest.world_T_radar = drifted;
-  newest.ra_target = ra_target;
-  newest.rd_target = rd_target;
+  // two passes see the walls from different places); with loop_image_alignment the constraint
+  // takes the newest keyframe's pose from its RA image aligned against the earlier pass's
+  // Gaussians (align_to_earlier_pass), else the match's.
+  const Eigen::Isometry3d start = C * newest.world_T_radar;
+  const Eigen::Isometry3d aligned =
+      options_.loop_image_alignment ? align_to_earlier_pass(k, start, old.front().second) : start;
   const Eigen::Isometry3d refinement = start.inverse() * aligned;
   if (refinement.translation().head<2>().norm() > options_.loop_max_refinement_m ||
       std::abs(Eigen::AngleAxisd(refinement.linear()).angle()) > options_.loop_max_refinement_deg * kDeg) {

@@ -127,6 +127,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("loop_max_refinement_m", o.loop_max_refinement_m, {0.0, 100.0});
   node.read("loop_max_refinement_deg", o.loop_max_refinement_deg, {0.0, 180.0});
   node.read("loop_lr_pose_translation", o.loop_lr_pose_translation, {0.0, 10.0});
+  node.read("loop_image_alignment", o.loop_image_alignment);
   node.read("loop_frozen_reference", o.loop_frozen_reference);
   node.read("loop_freeze_distance_m", o.loop_freeze_distance_m, {0.0, 1e6});
   node.read("loop_retry_search_m", o.loop_retry_search_m, {0.0, 100.0});
@@ -255,6 +256,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  loop_max_refinement_m: " << o.loop_max_refinement_m << "\n"
       << "  loop_max_refinement_deg: " << o.loop_max_refinement_deg << "\n"
       << "  loop_lr_pose_translation: " << o.loop_lr_pose_translation << "\n"
+      << "  loop_image_alignment: " << (o.loop_image_alignment ? "true" : "false") << "\n"
       << "  loop_frozen_reference: " << (o.loop_frozen_reference ? "true" : "false") << "\n"
       << "  loop_freeze_distance_m: " << o.loop_freeze_distance_m << "\n"
       << "  loop_retry_search_m: " << o.loop_retry_search_m << "\n"

@@ -153,6 +153,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
+      "  loop_image_alignment: false\n"
       "  loop_frozen_reference: true\n"
       "  loop_freeze_distance_m: 7.5\n"
       "  loop_retry_search_m: 2.0\n"
@@ -174,6 +175,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
+  CHECK_FALSE(o.loop_image_alignment);
   CHECK(o.loop_frozen_reference);
   CHECK(o.loop_freeze_distance_m == 7.5);
   CHECK(o.loop_retry_search_m == 2.0);
@@ -1552,6 +1554,23 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
              o.loop_freeze_distance_m = 3.0;
            });
   CHECK(never_frozen_stats.reference_gaussians == 0);
+  // The constraint from the point match alone (loop_image_alignment false): no alignment runs,
+  // and the loops still take the drift out.
+  BackendStats grid_stats;
+  Errors mean_grid;
+  const auto [err_grid, yaw_grid] =
+      walk(true, grid_stats, mean_grid, false, BackendOptions{}.max_keyframe_points, BackendOptions{}.max_keyframes,
+           [](BackendOptions& o) { o.loop_image_alignment = false; });
+  std::printf("out-and-back walk, the loops from the point match alone: final keyframe error %.3f m / %.2f deg (%llu "
+              "loops)\n",
+              err_grid, yaw_grid, static_cast<unsigned long long>(grid_stats.loop_closures));
+  CHECK(with_stats.loop_alignment.runs >= 1);
+  CHECK(grid_stats.loop_alignment.runs == 0);
+  CHECK(grid_stats.loop_closures >= 1);
+  CHECK(yaw_grid < 0.5 * yaw_without);
+  CHECK(err_grid < err_without);
+  CHECK(mean_grid.revised < mean_without.revised);
+  CHECK(grid_stats.nan_guard_hits == 0);
   CHECK(never_frozen_stats.loop_frozen_alignments == 0);
   CHECK(err_never_frozen == err_with);
   CHECK(yaw_never_frozen == yaw_with);
