@@ -959,7 +959,7 @@ void Backend::freeze_reference() {
     reference_anchors_.push_back(a);
   }
   if (reference_.size() > static_cast<std::size_t>(options_.max_gaussians))
-    remap_anchors(reference_.enforce_cap(keyframes_.back().world_T_radar.translation()), reference_anchors_);
+    remap_anchors(reference_.enforce_cap(newest.world_T_radar.translation()), reference_anchors_);
 }
 
 Eigen::Isometry3d Backend::align_to_earlier_pass(std::size_t k, const Eigen::Isometry3d& start, std::size_t nearest) {
