@@ -1037,11 +1037,13 @@ void Backend::align_revisit(std::size_t k) {
     if (newest.t - keyframes_[i].t < options_.loop_min_age_s) world_points(i, query);
   PlanarMatch m = match_planar(reference, query, options_.loop);
   // The window's best on its edge, or nothing in it that explains the points: the revisit may
-  // lie beyond it.
+  // lie beyond it. (A best on the edge is not refined outwards, one a step inside it at most
+  // half a step: the quarter step tells them apart.)
   const auto on_edge = [&](const PlanarMatch& c) {
     const PlanarMatchOptions& w = options_.loop;
-    return std::abs(c.correction.dyaw) / kDeg > w.search_deg - 0.5 * w.step_deg ||
-           std::abs(c.correction.dx) > w.search_m - 0.5 * w.cell_m || std::abs(c.correction.dy) > w.search_m - 0.5 * w.cell_m;
+    return std::abs(c.correction.dyaw) / kDeg > w.search_deg - 0.25 * w.step_deg ||
+           std::abs(c.correction.dx) > w.search_m - 0.25 * w.cell_m ||
+           std::abs(c.correction.dy) > w.search_m - 0.25 * w.cell_m;
   };
   if ((!m.valid || m.score < options_.loop_min_score || on_edge(m)) &&
       (options_.loop_retry_search_m > 0 || options_.loop_retry_search_deg > 0)) {
@@ -1068,10 +1070,10 @@ void Backend::align_revisit(std::size_t k) {
     ++stats_.loop_below_threshold;
     return;
   }
-  // The match's correction is good to a few tenths of a degree (its field is 15 cm wide and the
-  // two passes see the walls from different places); with loop_image_alignment the constraint
-  // takes the newest keyframe's pose from its RA image aligned against the earlier pass's
-  // Gaussians (align_to_earlier_pass), else the match's.
+  // The constraint takes the match's pose (good to a few tenths of a degree: its field is 15 cm
+  // wide and the two passes see the walls from different places), or with loop_image_alignment
+  // the newest keyframe's pose from its RA image aligned against the earlier pass's Gaussians
+  // (align_to_earlier_pass), which holds the heading no better (splat/RESULTS.md).
   const Eigen::Isometry3d start = C * newest.world_T_radar;
   const Eigen::Isometry3d aligned =
       options_.loop_image_alignment ? align_to_earlier_pass(k, start, old.front().second) : start;

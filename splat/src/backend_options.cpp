@@ -140,6 +140,7 @@ BackendOptions load_backend_options(OptionsNode node) {
     m.read("step_deg", o.loop.step_deg, {1e-3, 90.0});
     m.read("sigma_m", o.loop.sigma_m, {1e-3, 10.0});
     m.read("near_best_fraction", o.loop.near_best_fraction, {0.01, 0.999});
+    m.read("refine_peak", o.loop.refine_peak);
     int max_query = static_cast<int>(o.loop.max_query_points);
     m.read("max_query_points", max_query, {1, 1'000'000});
     o.loop.max_query_points = static_cast<std::size_t>(max_query);
@@ -264,7 +265,7 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  loop_match: {search_m: " << o.loop.search_m << ", search_deg: " << o.loop.search_deg
       << ", cell_m: " << o.loop.cell_m << ", step_deg: " << o.loop.step_deg << ", sigma_m: " << o.loop.sigma_m
       << ", near_best_fraction: " << o.loop.near_best_fraction << ", max_query_points: " << o.loop.max_query_points
-      << "}\n"
+      << ", refine_peak: " << (o.loop.refine_peak ? "true" : "false") << "}\n"
       << "  loop_graph: {odometry_sigma_m: " << o.loop_graph.odometry_sigma_m
       << ", odometry_sigma_deg: " << o.loop_graph.odometry_sigma_deg
       << ", loop_sigma_m: " << o.loop_graph.loop_sigma_m << ", loop_sigma_deg: " << o.loop_graph.loop_sigma_deg

@@ -130,9 +130,26 @@ PlanarMatch match_planar(std::span<const Eigen::Vector2d> reference, std::span<c
   m.score = scores[best];
   m.score_at_zero = scores[static_cast<std::size_t>(yaws) * static_cast<std::size_t>(side * side) +
                            static_cast<std::size_t>(shifts * side + shifts)];
-  m.correction.dx = bx * o.cell_m;
-  m.correction.dy = by * o.cell_m;
-  m.correction.dyaw = ba * o.step_deg * kDeg;
+  // The parabola's vertex through the best score and its neighbours along one axis of the grid,
+  // in steps from the best; 0 at the search's edge or where the scores do not curve down.
+  auto vertex = [&](int da, int dx, int dy) {
+    const int a0 = ba - da, a1 = ba + da, x0 = bx - dx, x1 = bx + dx, y0 = by - dy, y1 = by + dy;
+    if (a0 < -yaws || a1 > yaws || x0 < -shifts || x1 > shifts || y0 < -shifts || y1 > shifts) return 0.0;
+    auto at = [&](int a, int sx, int sy) {
+      return static_cast<double>(scores[static_cast<std::size_t>(a + yaws) * static_cast<std::size_t>(side * side) +
+                                        static_cast<std::size_t>((sx + shifts) * side + (sy + shifts))]);
+    };
+    const double lo_s = at(a0, x0, y0), mid = at(ba, bx, by), hi_s = at(a1, x1, y1);
+    const double curvature = lo_s - 2 * mid + hi_s;
+    if (!(curvature < 0)) return 0.0;
+    return std::clamp(0.5 * (lo_s - hi_s) / curvature, -0.5, 0.5);
+  };
+  const double fa = o.refine_peak ? vertex(1, 0, 0) : 0.0;
+  const double fx = o.refine_peak ? vertex(0, 1, 0) : 0.0;
+  const double fy = o.refine_peak ? vertex(0, 0, 1) : 0.0;
+  m.correction.dx = (bx + fx) * o.cell_m;
+  m.correction.dy = (by + fy) * o.cell_m;
+  m.correction.dyaw = (ba + fa) * o.step_deg * kDeg;
   m.correction.pivot = pivot;
 
   // Spread of the near-best candidates about the best.

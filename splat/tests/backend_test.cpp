@@ -129,6 +129,7 @@ TEST_CASE("Backend options: what print() writes loads back to the same options",
   changed.rd_loss = false;
   changed.final_ba.max_iterations = 80;
   changed.body_T_radar.translation() = Eigen::Vector3d(0.1, -0.02, 0.05);
+  changed.loop.refine_peak = !PlanarMatchOptions{}.refine_peak;
   for (const BackendOptions& o : {BackendOptions{}, changed}) {
     std::ostringstream printed;
     print(printed, o);
@@ -166,7 +167,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  lr_view_returns: 0.02\n"
       "  occlusion_threshold: 0.5\n"
       "  occlusion_margin_m: 0.3\n"
-      "  loop_match: {search_m: 1.5, sigma_m: 0.1}\n"
+      "  loop_match: {search_m: 1.5, sigma_m: 0.1, refine_peak: " +
+      std::string(PlanarMatchOptions{}.refine_peak ? "false" : "true") + "}\n"
       "  loop_graph: {odometry_sigma_deg: 0.05, loop_sigma_deg: 0.5, max_keyframes: 0}\n"
       "  final_ba: {max_iterations: 80}\n");
   CHECK(o.mapping_keyframes == 7);
@@ -195,6 +197,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK(o.loop.search_m == 1.5);
   CHECK(o.loop.sigma_m == 0.1);
   CHECK(o.loop.cell_m == PlanarMatchOptions{}.cell_m);
+  CHECK(o.loop.refine_peak != PlanarMatchOptions{}.refine_peak);
   CHECK(o.loop_graph.odometry_sigma_deg == 0.05);
   CHECK(o.loop_graph.loop_sigma_deg == 0.5);
   CHECK(o.loop_graph.max_keyframes == 0);
@@ -1437,8 +1440,7 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   CHECK(mean_with.revised < mean_with.published);
   CHECK(mean_with.revised < mean_without.revised);
 
-  // The first pass's images evicted before the revisit: the alignment needs only its points and
-  // Gaussians.
+  // The first pass's images evicted before the revisit: the match needs only its points.
   BackendStats evicted_stats, no_points_stats;
   Errors mean_evicted, mean_no_points;
   const auto [err_evicted, yaw_evicted] = walk(true, evicted_stats, mean_evicted, true);
@@ -1505,12 +1507,31 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   CHECK(err_retry < 0.5 * err_narrow);
   CHECK(retry_stats.nan_guard_hits == 0);
 
+  // The constraint from the point match refined by an image alignment against the earlier pass's
+  // Gaussians (loop_image_alignment): the loops take the drift out that way too.
+  BackendStats image_stats;
+  Errors mean_image;
+  const auto [err_image, yaw_image] =
+      walk(true, image_stats, mean_image, false, BackendOptions{}.max_keyframe_points, BackendOptions{}.max_keyframes,
+           [](BackendOptions& o) { o.loop_image_alignment = true; });
+  std::printf("out-and-back walk, the loops aligned on the images as well: final keyframe error %.3f m / %.2f deg "
+              "(%llu loops)\n",
+              err_image, yaw_image, static_cast<unsigned long long>(image_stats.loop_closures));
+  CHECK(with_stats.loop_alignment.runs == 0);  // off by default: the point match's constraint
+  CHECK(image_stats.loop_alignment.runs >= 1);
+  CHECK(image_stats.loop_closures >= 1);
+  CHECK(yaw_image < 0.5 * yaw_without);
+  CHECK(err_image < err_without);
+  CHECK(mean_image.revised < mean_without.revised);
+  CHECK(image_stats.nan_guard_hits == 0);
+
   // The alignment against the frozen copy of the first pass's Gaussians (loop_frozen_reference,
   // each keyframe's copied once the walk is 1 m past it), with the bare keyframes dropped too
   // (the copy's anchors renumbered with the scene's).
   BackendStats frozen_stats, frozen_dropped_stats, never_frozen_stats;
   Errors mean_frozen, mean_frozen_dropped, mean_never_frozen;
   const auto frozen = [](BackendOptions& o) {
+    o.loop_image_alignment = true;
     o.loop_frozen_reference = true;
     o.loop_freeze_distance_m = 1.0;
   };
@@ -1528,6 +1549,7 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
               static_cast<unsigned long long>(frozen_dropped_stats.keyframes_dropped));
   CHECK(without_stats.reference_gaussians == 0);
   CHECK(with_stats.reference_gaussians == 0);  // off by default: no copy
+  CHECK(image_stats.reference_gaussians == 0);
   CHECK(frozen_stats.reference_gaussians > 0);
   CHECK(frozen_stats.reference_gaussians <= frozen_stats.gaussians_added);
   CHECK(frozen_stats.loop_frozen_alignments >= 1);
@@ -1550,25 +1572,25 @@ TEST_CASE("Backend: a revisit whose frontend drifted out of the image loss's bas
   const auto [err_never_frozen, yaw_never_frozen] =
       walk(true, never_frozen_stats, mean_never_frozen, false, BackendOptions{}.max_keyframe_points,
            BackendOptions{}.max_keyframes, [](BackendOptions& o) {
+             o.loop_image_alignment = true;
              o.loop_frozen_reference = true;
              o.loop_freeze_distance_m = 3.0;
            });
   CHECK(never_frozen_stats.reference_gaussians == 0);
   CHECK(never_frozen_stats.loop_frozen_alignments == 0);
-  CHECK(err_never_frozen == err_with);
-  CHECK(yaw_never_frozen == yaw_with);
-  CHECK(mean_never_frozen.revised == mean_with.revised);
-  // The constraint from the point match alone (loop_image_alignment false): no alignment runs,
-  // and the loops still take the drift out.
+  CHECK(err_never_frozen == err_image);
+  CHECK(yaw_never_frozen == yaw_image);
+  CHECK(mean_never_frozen.revised == mean_image.revised);
+  // The point match's constraint on its grid (loop_match.refine_peak false): up to half a yaw
+  // step and half a cell from the score's peak, the loops still take the drift out.
   BackendStats grid_stats;
   Errors mean_grid;
   const auto [err_grid, yaw_grid] =
       walk(true, grid_stats, mean_grid, false, BackendOptions{}.max_keyframe_points, BackendOptions{}.max_keyframes,
-           [](BackendOptions& o) { o.loop_image_alignment = false; });
-  std::printf("out-and-back walk, the loops from the point match alone: final keyframe error %.3f m / %.2f deg (%llu "
-              "loops)\n",
+           [](BackendOptions& o) { o.loop.refine_peak = false; });
+  std::printf("out-and-back walk, the loops from the point match on its grid: final keyframe error %.3f m / %.2f deg "
+              "(%llu loops)\n",
               err_grid, yaw_grid, static_cast<unsigned long long>(grid_stats.loop_closures));
-  CHECK(with_stats.loop_alignment.runs >= 1);
   CHECK(grid_stats.loop_alignment.runs == 0);
   CHECK(grid_stats.loop_closures >= 1);
   CHECK(yaw_grid < 0.5 * yaw_without);

@@ -31,6 +31,10 @@ std::vector<Eigen::Vector2d> walls(const std::vector<std::pair<Eigen::Vector2d, 
   return out;
 }
 
+// A 9 m x 7 m room with a slanted wall inside it, as wall segments.
+const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> kRoom = {
+    {{-4, -3}, {5, -3}}, {{5, -3}, {5, 4}}, {{5, 4}, {-4, 4}}, {{-4, 4}, {-4, -3}}, {{1, 0}, {2, 1.5}}};
+
 std::vector<Eigen::Vector2d> moved(const std::vector<Eigen::Vector2d>& points, const PlanarCorrection& c) {
   const Eigen::Isometry3d T = c.isometry();
   std::vector<Eigen::Vector2d> out;
@@ -42,16 +46,14 @@ std::vector<Eigen::Vector2d> moved(const std::vector<Eigen::Vector2d>& points, c
 
 TEST_CASE("match_planar recovers the offset of a drifted revisit of a room") {
   std::mt19937_64 rng(7);
-  const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> room = {
-      {{-4, -3}, {5, -3}}, {{5, -3}, {5, 4}}, {{5, 4}, {-4, 4}}, {{-4, 4}, {-4, -3}}, {{1, 0}, {2, 1.5}}};
-  const std::vector<Eigen::Vector2d> reference = walls(room, rng);
+  const std::vector<Eigen::Vector2d> reference = walls(kRoom, rng);
   // The revisit sees the same walls (other noise), displaced by the drift: 0.35 m, -0.2 m, 2 deg.
   PlanarCorrection drift;
   drift.dx = 0.35;
   drift.dy = -0.2;
   drift.dyaw = 2.0 * kDeg;
   drift.pivot = Eigen::Vector2d(0.5, 0.5);
-  const std::vector<Eigen::Vector2d> query = moved(walls(room, rng), drift);
+  const std::vector<Eigen::Vector2d> query = moved(walls(kRoom, rng), drift);
 
   const PlanarMatch m = match_planar(reference, query, PlanarMatchOptions{});
   REQUIRE(m.valid);
@@ -78,6 +80,44 @@ TEST_CASE("match_planar recovers the offset of a drifted revisit of a room") {
   CHECK(m.spread_m < 0.05);
   // Yaw is the looser direction at this field's 0.15 m blur: +-0.8 deg turns the walls by 6 cm.
   CHECK(m.spread_deg < 1.0);
+}
+
+TEST_CASE("match_planar with refine_peak places a drift between grid steps") {
+  std::mt19937_64 rng(17);
+  const std::vector<Eigen::Vector2d> reference = walls(kRoom, rng);
+  // A drift half-way between the grid's steps (0.05 m, 0.25 deg) wherever the pivot lands:
+  // 2.2 cm and 0.11 deg off the nearest step along x and yaw.
+  PlanarCorrection drift;
+  drift.dx = 0.372;
+  drift.dy = -0.2;
+  drift.dyaw = 1.61 * kDeg;
+  const std::vector<Eigen::Vector2d> query = moved(walls(kRoom, rng), drift);
+
+  // How far the corrected query lands from where the drift's inverse puts it (worst point).
+  auto worst_error = [&](const PlanarMatch& m) {
+    const std::vector<Eigen::Vector2d> back = moved(query, m.correction);
+    const Eigen::Isometry3d inv = drift.isometry().inverse();
+    double worst = 0;
+    for (std::size_t i = 0; i < query.size(); ++i)
+      worst = std::max(worst, (back[i] - (inv * Eigen::Vector3d(query[i].x(), query[i].y(), 0)).head<2>()).norm());
+    return worst;
+  };
+  PlanarMatchOptions on, off;
+  on.refine_peak = true;
+  off.refine_peak = false;
+  const PlanarMatch grid = match_planar(reference, query, off);
+  const PlanarMatch refined = match_planar(reference, query, on);
+  REQUIRE(grid.valid);
+  REQUIRE(refined.valid);
+  // On the grid the yaw is a whole step; refined it is within a fifth of one of the truth.
+  CHECK(std::abs(std::remainder(grid.correction.dyaw / kDeg, 0.25)) < 1e-9);
+  CHECK_THAT(refined.correction.dyaw / kDeg, WithinAbs(-1.61, 0.05));
+  CHECK(std::abs(refined.correction.dyaw / kDeg + 1.61) < 0.5 * std::abs(grid.correction.dyaw / kDeg + 1.61));
+  CHECK(worst_error(refined) < 0.6 * worst_error(grid));
+  CHECK(worst_error(refined) < 0.02);
+  // The score and the spread are the grid's either way.
+  CHECK(refined.score == grid.score);
+  CHECK(refined.spread_m == grid.spread_m);
 }
 
 TEST_CASE("match_planar reports a corridor's along-track ambiguity") {

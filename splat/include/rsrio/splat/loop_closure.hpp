@@ -38,6 +38,11 @@ struct PlanarMatchOptions {
   // Candidates scoring at least this fraction of the best make the spread (ambiguity) figures.
   double near_best_fraction = 0.9;
   std::size_t max_query_points = 800;  // evenly subsampled beyond this
+  // Place the best candidate between grid steps: along yaw, x and y in turn, the vertex of the
+  // parabola through the best score and its two neighbours (within half a step). Off: the
+  // correction is on the grid, up to half a cell and half a yaw step (2.5 cm, 0.125 deg) from
+  // the score's peak, which is what a loop constraint taken from the match alone inherits.
+  bool refine_peak = true;
 };
 
 /// A planar correction q' = R(dyaw) (q - pivot) + pivot + (dx, dy) of world points.
@@ -51,7 +56,7 @@ struct PlanarCorrection {
 
 struct PlanarMatch {
   bool valid = false;                 // both clouds non-empty and within the search's reach
-  PlanarCorrection correction;        // the best candidate
+  PlanarCorrection correction;        // the best candidate (between grid steps with refine_peak)
   double score = 0;                   // mean field value of the query points at the best, in [0, 1]
   double score_at_zero = 0;           // ... with no correction
   // Spread of the near-best candidates (weighted by their score above the near-best threshold):
