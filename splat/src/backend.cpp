@@ -936,8 +936,8 @@ void Backend::remap_scene(const SceneRemap& remap) {
 }
 
 void Backend::freeze_reference() {
-  // Only the image alignment draws the copy.
-  if (!options_.loop_closure || !options_.loop_image_alignment || !options_.loop_frozen_reference) return;
+  // (validate() refuses the copy without the image alignment that draws it.)
+  if (!options_.loop_closure || !options_.loop_frozen_reference) return;
   const Keyframe& newest = keyframes_.back();
   const double d2 = options_.loop_freeze_distance_m * options_.loop_freeze_distance_m;
   std::vector<char> freeze(keyframes_.size(), 0);

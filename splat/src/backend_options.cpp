@@ -315,6 +315,8 @@ void validate(const BackendOptions& o, const std::string& file) {
     fail("loop_retry_search_m", "a number >= 0, at most 200 loop_match.cell_m steps");
   if (!(o.loop_retry_search_deg >= 0 && o.loop_retry_search_deg / o.loop.step_deg <= 200))
     fail("loop_retry_search_deg", "a number >= 0, at most 200 loop_match.step_deg steps");
+  if (o.loop_frozen_reference && !o.loop_image_alignment)
+    fail("loop_frozen_reference", "false unless loop_image_alignment is true (only the image alignment draws the copy)");
   if (o.loop_query_keyframes < 1) fail("loop_query_keyframes", "an integer >= 1");
   if (o.loop_reference_keyframes < 1) fail("loop_reference_keyframes", "an integer >= 1");
   if (o.loop_every_keyframes < 1) fail("loop_every_keyframes", "an integer >= 1");

@@ -154,7 +154,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
       "  loop_closure: false\n"
       "  loop_min_age_s: 12\n"
       "  loop_lr_pose_translation: 0.02\n"
-      "  loop_image_alignment: false\n"
+      "  loop_image_alignment: true\n"
       "  loop_frozen_reference: true\n"
       "  loop_freeze_distance_m: 7.5\n"
       "  loop_retry_search_m: 2.0\n"
@@ -177,7 +177,7 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   CHECK_FALSE(o.loop_closure);
   CHECK(o.loop_min_age_s == 12);
   CHECK(o.loop_lr_pose_translation == 0.02);
-  CHECK_FALSE(o.loop_image_alignment);
+  CHECK(o.loop_image_alignment);
   CHECK(o.loop_frozen_reference);
   CHECK(o.loop_freeze_distance_m == 7.5);
   CHECK(o.loop_retry_search_m == 2.0);
@@ -264,6 +264,8 @@ TEST_CASE("Backend options: the backend section is read strictly", "[splat][back
   fails_on("backend: {loop_lr_pose_translation: -0.01}\n", "loop_lr_pose_translation");
   fails_on("backend: {loop_retry_search_m: 20}\n", "loop_retry_search_m");      // 400 cells of 5 cm
   fails_on("backend: {loop_retry_search_deg: 60}\n", "loop_retry_search_deg");  // 240 steps of 0.25 deg
+  // The frozen copy without the image alignment that draws it would be kept for nothing.
+  fails_on("backend: {loop_frozen_reference: true}\n", "loop_frozen_reference");
   fails_on("backend: {range_falloff_exponent: 9}\n", "range_falloff_exponent");
   fails_on("backend: {rd_elevation_sigma_sin: 0.5}\n", "rd_elevation_sigma_sin");
   fails_on("backend: {rd_elevation_sigma_sin: 0.1, rd_gaussian_directions: true}\n", "rd_elevation_sigma_sin");
