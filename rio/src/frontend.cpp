@@ -35,7 +35,11 @@ RioFrontend::RioFrontend(const FrontendOptions& o) : options_(o) {
   params_->integrationCovariance = gtsam::I_3x3 * 1e-8;
   params_->biasAccCovariance = gtsam::I_3x3 * o.accel_bias_random_walk * o.accel_bias_random_walk;
   params_->biasOmegaCovariance = gtsam::I_3x3 * o.gyro_bias_random_walk * o.gyro_bias_random_walk;
-  params_->biasAccOmegaInt = gtsam::I_6x6 * 1e-5;  // 4.2's default I_6x6 inflates the covariance
+  // GTSAM 4.2 adds biasAccOmegaInt to both white noises at every sample (its default I_6x6 would
+  // swamp them): the window takes the options' (extra noise, frontend.hpp), the batch none.
+  whole_params_ = boost::make_shared<gtsam::PreintegrationCombinedParams>(*params_);
+  params_->biasAccOmegaInt = gtsam::I_6x6 * o.bias_acc_omega_int;
+  whole_params_->biasAccOmegaInt = gtsam::Matrix6::Zero();
 }
 
 void RioFrontend::add_imu(const ImuSample& s) {
@@ -203,6 +207,19 @@ void RioFrontend::add_factor(const gtsam::NonlinearFactor::shared_ptr& factor) {
   if (options_.whole_run_smoother) whole_graph_.push_back(factor);
 }
 
+gtsam::PreintegratedCombinedMeasurements RioFrontend::add_imu_factor(std::uint64_t prev, std::uint64_t k, double t0,
+                                                                      double t1, const gtsam::imuBias::ConstantBias& bias) {
+  gtsam::PreintegratedCombinedMeasurements pim(params_, bias);
+  preintegrate(t0, t1, pim);
+  graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
+  if (options_.whole_run_smoother) {
+    gtsam::PreintegratedCombinedMeasurements own(whole_params_, bias);
+    preintegrate(t0, t1, own);
+    whole_graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), own));
+  }
+  return pim;
+}
+
 std::vector<SmoothedState> RioFrontend::smooth_whole_run(int max_iterations) const {
   std::vector<SmoothedState> out;
   if (!options_.whole_run_smoother || whole_times_.empty()) return out;
@@ -267,15 +284,13 @@ std::optional<FrontendState> RioFrontend::add_radar(double t_radar, const EgoVel
   const auto [prev, t_prev] = window_.back();
   if (t <= t_prev || imu_.empty()) return std::nullopt;
   const auto bias_prev = values_.at<gtsam::imuBias::ConstantBias>(B(prev));
-  gtsam::PreintegratedCombinedMeasurements pim(params_, bias_prev);
-  preintegrate(t_prev, t, pim);
   const std::uint64_t k = next_++;
+  const gtsam::PreintegratedCombinedMeasurements pim = add_imu_factor(prev, k, t_prev, t, bias_prev);
   const gtsam::NavState predicted =
       pim.predict(gtsam::NavState(values_.at<gtsam::Pose3>(X(prev)), values_.at<gtsam::Vector3>(V(prev))), bias_prev);
   values_.insert(X(k), predicted.pose());
   values_.insert(V(k), predicted.v());
   values_.insert(B(k), bias_prev);
-  add_factor(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
   window_.emplace_back(k, t);
   if (options_.whole_run_smoother) whole_times_.emplace_back(k, t - options_.radar_time_offset_s);
   add_radar_factor(k, t, ego);

@@ -28,6 +28,17 @@ struct FrontendOptions {
   double gyro_noise_density = 2.0e-4;    // rad/s/sqrt(Hz)
   double accel_bias_random_walk = 3.0e-4;   // m/s^3/sqrt(Hz)
   double gyro_bias_random_walk = 2.0e-5;    // rad/s^2/sqrt(Hz)
+  // GTSAM 4.2's PreintegrationCombinedParams::biasAccOmegaInt ("covariance of bias used as initial
+  // estimate"), in the window's IMU factors. CombinedImuFactor's preintegration adds it to the
+  // accelerometer's and the gyro's white-noise covariance at every sample (4.3 removed it,
+  // borglab/gtsam PR #2199), so it is extra IMU noise, (m/s^2)^2/Hz and (rad/s)^2/Hz: GTSAM's
+  // example value 1e-5 runs the window with a gyro of 3.2e-3 rad/s/sqrt(Hz), 16 times the 2e-4
+  // above, and an accelerometer of 3.7e-3 m/s^2/sqrt(Hz), 1.9 times. With the IMU's own noise (0)
+  // the window's tilt against gravity is 2-3 times better, but its heading jumps by up to
+  // 0.8-2.4 deg within a second on the longer sequences (the unobservable yaw of a window whose
+  // marginals are linearised at older estimates), and the backend ends worse (rio/RESULTS.md,
+  // 2026-12-07). The whole-run batch, which has no marginals, always takes the IMU's own noise.
+  double bias_acc_omega_int = 1e-5;
   // How the signal runs between two IMU samples when it is integrated. kLinear: the straight line
   // through them, right for instantaneous samples (the simulator's; a MEMS IMU's output data are its
   // filter's value at the stamp). kHold: each sample held until the next (zero-order hold), which
@@ -72,8 +83,10 @@ struct FrontendOptions {
   // Keep every factor and state of the run (besides the window) so that smooth_whole_run() can
   // solve the whole run as one batch at its end: what the window marginalised, linearised at its
   // estimate then, is re-linearised with everything measured after it (the accelerometer bias,
-  // told from a tilt only by turns spread over the run). An end-of-run estimate (rsrio-replay's
-  // estimate_final.tum), not causal; memory grows with the run (a few kB a frame), so not for rsriod.
+  // told from a tilt only by turns spread over the run). Its IMU factors carry the IMU's own noise
+  // (no bias_acc_omega_int: without marginals its heading does not jump), preintegrated a second
+  // time beside the window's. An end-of-run estimate (rsrio-replay's estimate_final.tum), not
+  // causal; memory grows with the run (a few kB a frame), so not for rsriod.
   bool whole_run_smoother = false;
   // Window and priors.
   int window_states = 20;
@@ -157,6 +170,10 @@ class RioFrontend {
   std::uint64_t imu_ignored() const { return imu_ignored_; }
   std::uint64_t frames_without_radar() const { return frames_without_radar_; }
   std::uint64_t zero_rate_updates() const { return zero_rate_updates_; }
+  /// What the window's IMU factors are preintegrated with (the options' noise as GTSAM takes it).
+  const gtsam::PreintegrationCombinedParams& imu_params() const { return *params_; }
+  /// ... and the whole-run batch's (the IMU's own noise: no biasAccOmegaInt).
+  const gtsam::PreintegrationCombinedParams& whole_run_imu_params() const { return *whole_params_; }
   /// whole_run_smoother: every state of the run so far, solved as one batch over every factor added
   /// (Levenberg-Marquardt from the window's estimates, at most max_iterations), in time order.
   /// Empty without the option. Takes under a second for a run of minutes (3191 states: 0.6 s);
@@ -177,7 +194,8 @@ class RioFrontend {
   FrontendState state(std::uint64_t k, double t_radar, bool radar_used);
 
   FrontendOptions options_;
-  boost::shared_ptr<gtsam::PreintegrationCombinedParams> params_;
+  boost::shared_ptr<gtsam::PreintegrationCombinedParams> params_;        // the window's
+  boost::shared_ptr<gtsam::PreintegrationCombinedParams> whole_params_;  // the whole-run batch's
   std::deque<ImuSample> imu_;
   std::deque<std::pair<std::uint64_t, double>> window_;  // state index, IMU-clock time
   gtsam::NonlinearFactorGraph graph_;
@@ -189,6 +207,10 @@ class RioFrontend {
   std::vector<std::pair<std::uint64_t, double>> whole_times_;
   /// graph_.add, and whole_graph_ with the option.
   void add_factor(const gtsam::NonlinearFactor::shared_ptr& factor);
+  /// The IMU factor from state prev to state k over [t0, t1]: into the window with params_, and
+  /// with the option into the batch with whole_params_. Returns the window's preintegration.
+  gtsam::PreintegratedCombinedMeasurements add_imu_factor(std::uint64_t prev, std::uint64_t k, double t0, double t1,
+                                                          const gtsam::imuBias::ConstantBias& bias);
   std::uint64_t next_ = 0;
   std::uint64_t imu_ignored_ = 0;
   std::uint64_t frames_without_radar_ = 0;
