@@ -178,6 +178,7 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.continuous_odometry == d.frontend.continuous_odometry);
   CHECK(o.frontend.position_from_velocity == d.frontend.position_from_velocity);
   CHECK(o.frontend.whole_run_smoother == d.frontend.whole_run_smoother);
+  CHECK(o.frontend.bias_acc_omega_int == d.frontend.bias_acc_omega_int);
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);
@@ -214,6 +215,21 @@ TEST_CASE("positions from the velocities load, print back, and a wrong value nam
 TEST_CASE("the whole-run smoother loads, prints back, and a wrong value names its key", "[odometry]") {
   check_flag_option("frontend", "whole_run_smoother", "yes please",
                     [](OdometryOptions& o) -> bool& { return o.frontend.whole_run_smoother; });
+}
+
+TEST_CASE("GTSAM's initial-bias noise for the window prints, loads back, and a bad value names its key", "[odometry]") {
+  const rsrio::testing::ScratchDir dir("odometry_test");
+  for (const double value : {1e-5, 0.0, 3e-7}) {  // the default prints as 1e-05
+    OdometryOptions o;
+    o.frontend.bias_acc_omega_int = value;
+    std::ostringstream printed;
+    print(printed, o);
+    const std::string path = dir.write("printed.yaml", "%YAML:1.0\n---\n" + printed.str());
+    CHECK(load_file(path).frontend.bias_acc_omega_int == value);
+  }
+  for (const std::string bad : {"-1.0e-5", "2.0", "lots"})
+    check_error_names_key(dir.write("bad.yaml", "%YAML:1.0\n---\nfrontend:\n  bias_acc_omega_int: " + bad + "\n"),
+                          "bias_acc_omega_int");
 }
 
 TEST_CASE("the IMU interpolation prints by name, loads back, and a wrong name names its key", "[odometry]") {
