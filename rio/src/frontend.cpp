@@ -83,11 +83,14 @@ void RioFrontend::for_each_imu_piece(double t0, double t1, F&& f) const {
   }
 }
 
-void RioFrontend::preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const {
-  for_each_imu_piece(t0, t1, [&](const gtsam::Vector3& accel, const gtsam::Vector3& gyro, double dt) {
+void RioFrontend::preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim,
+                               gtsam::PreintegratedCombinedMeasurements* also) const {
+  const auto integrate = [&](const gtsam::Vector3& accel, const gtsam::Vector3& gyro, double dt) {
     pim.integrateMeasurement(accel, gyro, dt);
-  });
-  if (pim.deltaTij() < 1e-9) pim.integrateMeasurement(imu_.back().accel, imu_.back().gyro, std::max(t1 - t0, 1e-6));
+    if (also != nullptr) also->integrateMeasurement(accel, gyro, dt);
+  };
+  for_each_imu_piece(t0, t1, integrate);
+  if (pim.deltaTij() < 1e-9) integrate(imu_.back().accel, imu_.back().gyro, std::max(t1 - t0, 1e-6));
 }
 
 bool RioFrontend::initialise(double t, const EgoVelocity& ego) {
@@ -210,13 +213,14 @@ void RioFrontend::add_factor(const gtsam::NonlinearFactor::shared_ptr& factor) {
 gtsam::PreintegratedCombinedMeasurements RioFrontend::add_imu_factor(std::uint64_t prev, std::uint64_t k, double t0,
                                                                       double t1, const gtsam::imuBias::ConstantBias& bias) {
   gtsam::PreintegratedCombinedMeasurements pim(params_, bias);
-  preintegrate(t0, t1, pim);
-  graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
-  if (options_.whole_run_smoother) {
+  if (!options_.whole_run_smoother) {
+    preintegrate(t0, t1, pim);
+  } else {
     gtsam::PreintegratedCombinedMeasurements own(whole_params_, bias);
-    preintegrate(t0, t1, own);
+    preintegrate(t0, t1, pim, &own);  // one walk over the samples for both
     whole_graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), own));
   }
+  graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
   return pim;
 }
 

@@ -35,9 +35,10 @@ struct FrontendOptions {
   // example value 1e-5 runs the window with a gyro of 3.2e-3 rad/s/sqrt(Hz), 16 times the 2e-4
   // above, and an accelerometer of 3.7e-3 m/s^2/sqrt(Hz), 1.9 times. With the IMU's own noise (0)
   // the window's tilt against gravity is 2-3 times better, but its heading jumps by up to
-  // 0.8-2.4 deg within a second on the longer sequences (the unobservable yaw of a window whose
-  // marginals are linearised at older estimates), and the backend ends worse (rio/RESULTS.md,
-  // 2026-12-07). The whole-run batch, which has no marginals, always takes the IMU's own noise.
+  // 0.8-2.4 deg within a second on the longer sequences (the whole window turning about the
+  // world's origin: its marginals are linearised at older estimates; taking position and heading
+  // out of them stops the jumps but lets the height drift), and the backend ends worse
+  // (rio/RESULTS.md, 2026-12-07). The whole-run batch, which has no marginals, always takes the IMU's own noise.
   double bias_acc_omega_int = 1e-5;
   // How the signal runs between two IMU samples when it is integrated. kLinear: the straight line
   // through them, right for instantaneous samples (the simulator's; a MEMS IMU's output data are its
@@ -84,8 +85,8 @@ struct FrontendOptions {
   // solve the whole run as one batch at its end: what the window marginalised, linearised at its
   // estimate then, is re-linearised with everything measured after it (the accelerometer bias,
   // told from a tilt only by turns spread over the run). Its IMU factors carry the IMU's own noise
-  // (no bias_acc_omega_int: without marginals its heading does not jump), preintegrated a second
-  // time beside the window's. An end-of-run estimate (rsrio-replay's estimate_final.tum), not
+  // (no bias_acc_omega_int: without marginals its heading does not jump), preintegrated beside
+  // the window's in the same walk over the samples. An end-of-run estimate (rsrio-replay's estimate_final.tum), not
   // causal; memory grows with the run (a few kB a frame), so not for rsriod.
   bool whole_run_smoother = false;
   // Window and priors.
@@ -187,7 +188,9 @@ class RioFrontend {
   /// mean under imu_interpolation. After the last sample its value is held.
   template <class F>
   void for_each_imu_piece(double t0, double t1, F&& f) const;
-  void preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim) const;
+  /// The IMU over [t0, t1] into pim, and into also (the batch's, other noise) in the same walk.
+  void preintegrate(double t0, double t1, gtsam::PreintegratedCombinedMeasurements& pim,
+                    gtsam::PreintegratedCombinedMeasurements* also = nullptr) const;
   void add_radar_factor(std::uint64_t k, double t, const EgoVelocity& ego);
   void add_zero_rate_factor(std::uint64_t k, double t0, double t1, const EgoVelocity& ego);
   void marginalise_oldest();
