@@ -3,7 +3,7 @@
 //
 //   rsrio-replay --input REC.mcap --out DIR [--config FILE] [--backend none|ba [--pipelined]
 //                [--backend-poses frontend|constant-velocity] [--repeatable]]
-//                [--odometry-drift DEG_PER_S,SCALE]
+//                [--odometry-drift DEG_PER_S,SCALE | --odometry-truth]
 //
 // --repeatable: the backend's stages without their time budgets (each runs its iterations or to
 // convergence, however long that takes), so that the same recording and options give the same
@@ -16,6 +16,9 @@
 // with a heading drift of DEG_PER_S and a speed error of SCALE (0.01: every step 1 % long) would
 // give it (OdometryDrift): how much of a drift the size of the paper's MRIO (0.9-22 m on its
 // sequences; this frontend's is 0.14-0.46 m on the simulated ones) the backend takes out.
+// --odometry-truth: every frontend pose (frontend.tum and what the backend takes) is the
+// recording's /ground_truth at the frame's time, tilt and height included: the backend given a
+// perfect frontend, its own floor (what its image losses do to poses that were right).
 // DIR/frontend.tum   the frontend's radar-frame pose per radar frame (TUM, radar clock, world = the
 //                    frontend's: origin at the first state, yaw 0 there)
 // DIR/estimate.tum   the pose after the backend as published (causal; = frontend.tum with --backend none)
@@ -92,6 +95,46 @@ double seconds(const builtin_interfaces::msg::Time& t) { return t.sec() + 1e-9 *
 rsrio::eval::StampedPose stamped(double t, const gtsam::Pose3& pose) {
   return {t, pose.translation(), pose.rotation().toQuaternion()};
 }
+
+// A /ground_truth message's pose (the radar in the map); nullopt if it does not decode.
+std::optional<rsrio::eval::StampedPose> ground_truth_pose(const rsrio::RecordedMessage& m) {
+  nav_msgs::msg::Odometry gt;
+  if (!rsrio::decode(m, gt)) return std::nullopt;
+  const auto& p = gt.pose().pose();
+  return rsrio::eval::StampedPose{
+      seconds(gt.header().stamp()),
+      {p.position().x(), p.position().y(), p.position().z()},
+      Eigen::Quaterniond(p.orientation().w(), p.orientation().x(), p.orientation().y(), p.orientation().z()).normalized()};
+}
+
+// A perfect frontend (--odometry-truth): the recording's ground truth, read before the replay
+// (its messages need not come before the frames they cover), interpolated at a frame's time.
+class OdometryTruth {
+ public:
+  explicit OdometryTruth(const std::string& input) {
+    rsrio::RecordingReader reader(input);
+    rsrio::RecordedMessage m;
+    while (reader.next(m))
+      if (m.topic == rsrio::topics::kGroundTruth)
+        if (const auto pose = ground_truth_pose(m)) truth_.push_back(*pose);
+    std::stable_sort(truth_.begin(), truth_.end(), [](const auto& a, const auto& b) { return a.t < b.t; });
+    if (truth_.size() < 2)
+      throw std::runtime_error(input + ": --odometry-truth needs the recording's " + rsrio::topics::kGroundTruth +
+                               ", which has " + std::to_string(truth_.size()) + " poses");
+  }
+  /// The radar's pose at t; nullopt outside the truth or across one of its gaps.
+  std::optional<gtsam::Pose3> world_T_radar(double t) const {
+    auto b = std::lower_bound(truth_.begin(), truth_.end(), t, [](const auto& p, double time) { return p.t < time; });
+    if (b == truth_.end()) return std::nullopt;
+    if (b == truth_.begin()) b = std::next(b);  // t at the first sample: interpolated between the first two
+    const rsrio::eval::Trajectory at = rsrio::eval::resampled({*std::prev(b), *b}, {t}, kGroundTruthMaxGapS);
+    if (at.empty()) return std::nullopt;
+    return gtsam::Pose3(gtsam::Rot3(at.front().q), at.front().p);
+  }
+
+ private:
+  rsrio::eval::Trajectory truth_;
+};
 
 const char* status_key(rsrio::rio::EgoVelocityStatus s) {
   using S = rsrio::rio::EgoVelocityStatus;
@@ -421,7 +464,7 @@ struct PendingFrame {
 
 int main(int argc, char** argv) {
   std::string input, out_dir, backend_name = "none", pictures_text = "3", backend_poses = "frontend", drift_text;
-  bool quiet = false, pipelined = false, repeatable = false;
+  bool quiet = false, pipelined = false, repeatable = false, truth_wanted = false;
   rsrio::Cli cli(kProgram,
                  "Runs the radar-inertial odometry over a recording as fast as possible and writes\n"
                  "frontend.tum, estimate.tum (with --backend ba also estimate_final.tum), ground_truth.tum\n"
@@ -450,6 +493,10 @@ int main(int argc, char** argv) {
               "the frontend's poses with a heading drift of DEG_PER_S and every step SCALE too long (0.01: 1 %), "
               "as frontend.tum and as the backend takes them: the backend against a frontend that drifts more",
               &drift_text)
+      .flag("--odometry-truth",
+            "the frontend's poses replaced by the recording's ground truth, as frontend.tum and as the backend "
+            "takes them: the backend given a perfect frontend (its own floor)",
+            &truth_wanted)
       .flag("--quiet", "no progress line", &quiet);
   if (auto rc = cli.parse(argc, argv)) return *rc;
   rsrio::EstimatorOptions estimator;
@@ -479,14 +526,17 @@ int main(int argc, char** argv) {
     if (alone) return cli.usage_error("--odometry-drift drifts the frontend's poses: not with --backend-poses constant-velocity");
     drift.emplace(rate_deg * std::numbers::pi / 180, scale);
   }
+  if (truth_wanted && (drift || alone))
+    return cli.usage_error("--odometry-truth replaces the frontend's poses: not with --odometry-drift or --backend-poses "
+                           "constant-velocity");
   if (alone && (backend_name != "ba" || pipelined))
     return cli.usage_error(
         "--backend-poses constant-velocity needs --backend ba, sequential (the prediction is the backend's own state)");
   if (pipelined && backend_name != "ba")
     return cli.usage_error("--pipelined runs the backend on its own thread: it needs --backend ba");
-  if (options.frontend.whole_run_smoother && (drift || alone))
-    return cli.usage_error("frontend.whole_run_smoother re-solves the frontend's own poses: not with --odometry-drift or "
-                           "--backend-poses constant-velocity");
+  if (options.frontend.whole_run_smoother && (drift || alone || truth_wanted))
+    return cli.usage_error("frontend.whole_run_smoother re-solves the frontend's own poses: not with --odometry-drift, "
+                           "--odometry-truth or --backend-poses constant-velocity");
   if (repeatable && (backend_name != "ba" || pipelined))
     return cli.usage_error(
         "--repeatable needs --backend ba, sequential (on its own thread the backend's corrections reach the frames "
@@ -507,6 +557,8 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(out_dir);
     rsrio::RecordingReader reader(input);
     rsrio::RecordedMessage m;
+    std::optional<OdometryTruth> truth;
+    if (truth_wanted) truth.emplace(input);
 
     std::optional<rsrio::rio::Odometry> odometry;
     std::unique_ptr<Backend> backend;
@@ -526,7 +578,8 @@ int main(int argc, char** argv) {
     double offset = options.frontend.radar_time_offset_s;
     rsrio::eval::Trajectory frontend_tum, estimate_tum, ground_truth, frontend_smoothed_tum;
     double smoother_s = 0;
-    rsrio::rio::FrameInfo drifted;  // --odometry-drift: the frame as the drifting frontend gives it
+    rsrio::rio::FrameInfo replaced;  // the frame as the drifting frontend (--odometry-drift) or the truth gives it
+    std::uint64_t frames_without_truth = 0;  // --odometry-truth: frames outside the truth, not given on
     std::map<std::string, std::uint64_t> rejected, damaged;
     std::vector<double> t_dsp, t_ego, t_frontend, t_total;
     std::uint64_t frames = 0, states = 0, imu_count = 0, undecodable = 0, radar_used = 0;
@@ -578,13 +631,28 @@ int main(int argc, char** argv) {
         radar_used += info.state->radar_used;
         const rsrio::rio::FrameInfo* given = &info;
         if (drift) {
-          drifted = info;
-          drifted.state->world_T_body = drift->apply(info.t, info.state->world_T_body);
-          drifted.world_T_radar = drifted.state->world_T_body * options.frontend.body_T_radar;
-          given = &drifted;
+          replaced = info;
+          replaced.state->world_T_body = drift->apply(info.t, info.state->world_T_body);
+          replaced.world_T_radar = replaced.state->world_T_body * options.frontend.body_T_radar;
+          given = &replaced;
+        } else if (truth) {
+          given = nullptr;
+          if (const std::optional<gtsam::Pose3> world_T_radar = truth->world_T_radar(info.t)) {
+            replaced = info;
+            replaced.world_T_radar = *world_T_radar;
+            replaced.state->world_T_body = *world_T_radar * options.frontend.body_T_radar.inverse();
+            // The truth's tilt: no accelerometer bias or settled attitude to retilt it by.
+            replaced.state->bias = gtsam::imuBias::ConstantBias();
+            replaced.state->settled.reset();
+            given = &replaced;
+          } else {
+            ++frames_without_truth;
+          }
         }
-        frontend_tum.push_back(stamped(info.t, given->world_T_radar));
-        estimate_tum.push_back(stamped(info.t, backend->process(*given, cube)));
+        if (given) {
+          frontend_tum.push_back(stamped(info.t, given->world_T_radar));
+          estimate_tum.push_back(stamped(info.t, backend->process(*given, cube)));
+        }
       }
       t_total.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       last_t = f.t_stamp;
@@ -641,17 +709,10 @@ int main(int argc, char** argv) {
           progress(false);
         }
       } else if (m.topic == rsrio::topics::kGroundTruth) {
-        nav_msgs::msg::Odometry gt;
-        if (!rsrio::decode(m, gt)) {
+        if (const auto pose = ground_truth_pose(m))
+          ground_truth.push_back(*pose);
+        else
           ++undecodable;
-          continue;
-        }
-        const auto& p = gt.pose().pose();
-        ground_truth.push_back({seconds(gt.header().stamp()),
-                                {p.position().x(), p.position().y(), p.position().z()},
-                                Eigen::Quaterniond(p.orientation().w(), p.orientation().x(), p.orientation().y(),
-                                                   p.orientation().z())
-                                    .normalized()});
       }
     }
     for (auto& f : pending) process(f);
@@ -714,6 +775,8 @@ int main(int argc, char** argv) {
        << "  \"backend_poses\": " << json_string(ba != nullptr ? backend_poses : "none") << ",\n"
        << "  \"repeatable\": " << (repeatable ? "true" : "false") << ",\n"
        << "  \"odometry_drift\": " << (drift_text.empty() ? "null" : json_string(drift_text)) << ",\n"
+       << "  \"odometry_truth\": " << (truth ? "true" : "false") << ",\n"
+       << "  \"frames_without_truth\": " << frames_without_truth << ",\n"
        << "  \"waited_for_backend_s\": " << (ba != nullptr ? ba->waited_s : 0.0) << ",\n"
        << "  \"whole_run_smoother_s\": " << smoother_s << ",\n"
        << "  \"frames\": " << frames << ",\n"

@@ -69,6 +69,21 @@ awk -v a="$(last_yaw_deg "$tmp/turn/frontend.tum")" -v b="$(last_yaw_deg "$tmp/o
   && ok "drift: turned by 2 deg/s over ${span} s" || bad "drift: last yaw $(last_yaw_deg "$tmp/turn/frontend.tum") against $(last_yaw_deg "$tmp/out/frontend.tum") over $span s"
 check "drift none" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/still" --config "$tmp/tiny.yaml" --odometry-drift 0,0
 cmp -s "$tmp/still/frontend.tum" "$tmp/out/frontend.tum" && ok "drift: 0,0 is the frontend to the last digit" || bad "drift: 0,0 moved poses"
+# --odometry-truth: the frontend's poses are the ground truth at the frames' times (frontend.tum
+# on ground_truth.tum to the printed 0.1 mm), said in stats.json; a recording without the truth (a
+# capture, or here one cut before its first chunk) is refused naming the topic.
+check "truth" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/truth" --config "$tmp/tiny.yaml" --odometry-truth
+out=$("$eval" --gt "$tmp/truth/ground_truth.tum" --est "$tmp/truth/frontend.tum" --align none 2>&1)
+ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
+awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 1e-4) }' && ok "truth: frontend.tum is the truth ($ape m)" || { bad "truth: APE '$ape' m"; echo "$out"; }
+[ "$(grep -c . "$tmp/truth/frontend.tum")" = 63 ] && ok "truth: one pose per frame" || bad "truth: frontend.tum has $(grep -c . "$tmp/truth/frontend.tum") lines"
+grep -q '"odometry_truth": true' "$tmp/truth/stats.json" && grep -q '"odometry_truth": false' "$tmp/out/stats.json" \
+  && grep -q '"frames_without_truth": 0' "$tmp/truth/stats.json" && ok "stats: odometry_truth" || bad "stats.json: odometry_truth"
+head -c 2048 "$tmp/rec.mcap" > "$tmp/head.mcap"
+check "truth missing" 1 "--odometry-truth needs the recording's /ground_truth, which has 0 poses" "$replay" \
+  --input "$tmp/head.mcap" --out "$tmp/x" --odometry-truth
+check "truth with drift" 2 "--odometry-truth replaces" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --odometry-truth \
+  --odometry-drift 0,0.1
 check "drift malformed" 2 "--odometry-drift: expected DEG_PER_S,SCALE" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --odometry-drift 0.1
 check "drift scale too large" 2 "--odometry-drift" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --odometry-drift 0,2
 
@@ -96,6 +111,15 @@ check "backend poses constant-velocity" 0 "63 frames" "$replay" --input "$tmp/re
 cmp -s "$tmp/alone/estimate.tum" "$tmp/ba/estimate.tum" && bad "alone: the same poses as with the frontend" || ok "alone: not the frontend's poses"
 grep -q '"backend_poses": "constant-velocity"' "$tmp/alone/stats.json" && ok "stats: backend_poses" || bad "stats.json lacks backend_poses"
 grep -q '"backend_poses": "frontend"' "$tmp/ba/stats.json" && ok "stats: backend_poses frontend" || bad "stats.json (ba) lacks backend_poses"
+# The backend given the truth (its own floor): it moves the poses, and not far from where they were.
+check "ba from the truth" 0 "63 frames" "$replay" --input "$tmp/rec.mcap" --out "$tmp/batruth" --config "$tmp/tiny_ba.yaml" \
+  --backend ba --odometry-truth --pictures 0
+cmp -s "$tmp/batruth/frontend.tum" "$tmp/batruth/estimate.tum" && bad "ba from the truth: no pose moved" || ok "ba from the truth: poses refined"
+for f in estimate estimate_final; do
+  out=$("$eval" --gt "$tmp/batruth/ground_truth.tum" --est "$tmp/batruth/$f.tum" 2>&1)
+  ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
+  awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.05) }' && ok "ba from the truth: $f APE $ape m < 0.05 m" || { bad "ba from the truth: $f APE '$ape' m"; echo "$out"; }
+done
 check "backend poses unknown" 2 "--backend-poses" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --backend-poses imu
 check "backend poses without ba" 2 "needs --backend ba" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend-poses constant-velocity
 check "backend poses pipelined" 2 "sequential" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --backend ba --pipelined \
@@ -140,6 +164,8 @@ ape=$(awk '/^APE translation \(m\)/ { print $5 }' <<<"$out")
 awk -v a="$ape" 'BEGIN { exit !(a != "" && a < 0.05) }' && ok "smoother: APE $ape m < 0.05 m" || { bad "smoother: APE '$ape' m"; echo "$out"; }
 check "smoother with drift" 2 "whole_run_smoother" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --config "$tmp/tiny_smooth.yaml" \
   --backend ba --odometry-drift 0,0.1
+check "smoother with truth" 2 "whole_run_smoother" "$replay" --input "$tmp/rec.mcap" --out "$tmp/x" --config "$tmp/tiny_smooth.yaml" \
+  --backend ba --odometry-truth
 # rsrio-eval --ablation on a recording put where it looks for sequence 1: only the rows asked for
 # are replayed and printed (each into its own directory), an unknown row is a usage error.
 mkdir -p "$tmp/data" && cp "$tmp/rec.mcap" "$tmp/data/seq1_meeting_room.mcap"
