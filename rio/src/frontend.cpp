@@ -270,6 +270,7 @@ FrontendState RioFrontend::state(std::uint64_t k, double t_radar, bool radar_use
   published_velocity_ = s.velocity_world;
   published_k_ = k;
   s.bias = values_.at<gtsam::imuBias::ConstantBias>(B(k));
+  s.angular_velocity_body = s.bias.correctGyroscope(gyro_at(t_radar + options_.radar_time_offset_s));
   s.radar_used = radar_used;
   try {
     s.pose_covariance = gtsam::Marginals(graph_, values_).marginalCovariance(X(k));

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include <catch2/catch_test_macros.hpp>
 #include <catch2/matchers/catch_matchers_string.hpp>
@@ -31,19 +32,26 @@ OdometryOptions options_for(const sim::Scenario& s, bool use_radar) {
 struct Run {
   eval::Trajectory truth, estimate;
   int frames = 0, radar_used = 0;
+  // The state's turn rate against the truth's at the frame's time (rad/s, body frame), and the
+  // newest gyro sample's (bias-corrected), which the daemon published until 2026-12-07.
+  std::vector<double> rate_errors, newest_sample_rate_errors;
 };
 
-// Feeds every IMU sample up to a frame's completion, then the frame, as a recording replays.
-Run run(const sim::Scenario& scenario, bool use_radar) {
+// Feeds every IMU sample up to a frame's completion (and imu_lead_s beyond: a daemon gets a frame
+// some time after its last chirp, the IMU meanwhile), then the frame, as a recording replays.
+Run run(const sim::Scenario& scenario, bool use_radar, double imu_lead_s = 0) {
   sim::Simulation simulation(scenario, 1);
   Odometry odometry(scenario.radar, options_for(scenario, use_radar));
   AdcCube cube = AdcCube::for_config(scenario.radar);
   Run r;
+  const Eigen::Matrix3d body_R_radar = scenario.rig.radar_in_imu.rotation;
+  Eigen::Vector3d newest_gyro = Eigen::Vector3d::Zero();
   for (std::uint64_t k = 0; k < simulation.radar_frames(); ++k) {
     const double t_frame = simulation.radar().frame_completion(k);
-    while (simulation.imu().next_time() <= t_frame) {
+    while (simulation.imu().next_time() <= t_frame + imu_lead_s) {
       const sim::ImuSample s = simulation.imu().next();
       odometry.add_imu({s.time + scenario.rig.imu_time_offset_s, s.linear_acceleration, s.angular_velocity});
+      newest_gyro = s.angular_velocity;
     }
     simulation.radar().simulate(k, cube);
     const FrameInfo& info = odometry.add_radar_frame(t_frame, cube);
@@ -52,6 +60,9 @@ Run run(const sim::Scenario& scenario, bool use_radar) {
     r.radar_used += info.state->radar_used;
     const sim::RigState truth = simulation.radar_state(info.t);
     r.truth.push_back({info.t, truth.position, Eigen::Quaterniond(truth.rotation)});
+    const Eigen::Vector3d rate_truth = body_R_radar * truth.angular_velocity;
+    r.rate_errors.push_back((info.state->angular_velocity_body - rate_truth).norm());
+    r.newest_sample_rate_errors.push_back((info.state->bias.correctGyroscope(newest_gyro) - rate_truth).norm());
     r.estimate.push_back({info.t, info.world_T_radar.translation(), info.world_T_radar.rotation().toQuaternion()});
   }
   return r;
@@ -75,6 +86,25 @@ TEST_CASE("odometry on simulated raw frames tracks the ground truth; IMU only dr
   CHECK(a.path_length_m > 3.0);
   CHECK(a.translation_m.rmse < 0.05);
   CHECK(b.translation_m.rmse > 10 * a.translation_m.rmse);
+}
+
+TEST_CASE("odometry: the state's turn rate is the gyro's at the frame's time, however far the IMU has run ahead",
+          "[odometry]") {
+  sim::Scenario scenario = sim::load_scenario("scenarios/test_tiny.yaml");
+  scenario.duration_s = 6.0;  // the walk and its turn
+  const auto rms = [](const std::vector<double>& e) {
+    double s = 0;
+    for (double x : e) s += x * x;
+    return std::sqrt(s / static_cast<double>(e.size()));
+  };
+  // What the daemon publishes as the twist's angular part: the state's rate (OdometryStage), here
+  // with the IMU 60 ms ahead of each frame, where the newest gyro sample (published until
+  // 2026-12-07) is 60 ms off the pose's time.
+  const Run r = run(scenario, true, 0.06);
+  REQUIRE(r.rate_errors.size() > 40);
+  INFO("turn rate error RMS " << rms(r.rate_errors) << " rad/s, the newest sample's " << rms(r.newest_sample_rate_errors));
+  CHECK(rms(r.rate_errors) < 0.01);
+  CHECK(rms(r.rate_errors) < 0.5 * rms(r.newest_sample_rate_errors));
 }
 
 TEST_CASE("people walking in front of the radar do not move the ego-velocity beyond its noise", "[odometry]") {

@@ -7,10 +7,7 @@ namespace rsrio {
 OdometryStage::OdometryStage(const RadarConfig& radar, const rio::OdometryOptions& options)
     : odometry_(radar, options) {}
 
-void OdometryStage::add_imu(const rio::ImuSample& sample) {
-  odometry_.add_imu(sample);
-  last_imu_ = sample;
-}
+void OdometryStage::add_imu(const rio::ImuSample& sample) { odometry_.add_imu(sample); }
 
 bool OdometryStage::add_frame(double t, const AdcCube& cube, PoseOutput& out) {
   ++frames_;
@@ -32,7 +29,8 @@ bool OdometryStage::add_frame(double t, const AdcCube& cube, PoseOutput& out) {
   out.orientation = {q.x(), q.y(), q.z(), q.w()};
   const gtsam::Vector3 v_body = R.unrotate(state->velocity_world);
   out.linear_velocity = {v_body.x(), v_body.y(), v_body.z()};
-  const gtsam::Vector3 w = state->bias.correctGyroscope(last_imu_.gyro);
+  // The turn rate at the pose's time (the gyro interpolated there), not the newest sample's.
+  const gtsam::Vector3& w = state->angular_velocity_body;
   out.angular_velocity = {w.x(), w.y(), w.z()};
   // GTSAM's pose covariance is on the body-frame tangent [rotation, translation]; ROS wants
   // [x y z, rot x y z] in the header frame: reorder the blocks and rotate them into the world.

@@ -134,6 +134,7 @@ struct FrontendState {
   double t = 0;                                  // radar clock
   gtsam::Pose3 world_T_body;
   gtsam::Vector3 velocity_world = gtsam::Vector3::Zero();
+  gtsam::Vector3 angular_velocity_body = gtsam::Vector3::Zero();  // the gyro at t (interpolated) less the bias
   gtsam::imuBias::ConstantBias bias;
   gtsam::Matrix6 pose_covariance = gtsam::Matrix6::Identity();  // tangent [rotation, translation]
   bool radar_used = false;                       // an ego-velocity factor was added for this frame

@@ -33,7 +33,6 @@ class OdometryStage {
 
  private:
   rio::Odometry odometry_;
-  rio::ImuSample last_imu_;
   double last_t_ = 0;
   gtsam::Pose3 last_odom_T_body_;
   std::uint64_t frames_ = 0;
