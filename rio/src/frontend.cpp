@@ -1,5 +1,8 @@
 #include "rsrio/rio/frontend.hpp"
 
+#include <algorithm>
+#include <iterator>
+
 #include <gtsam/inference/Symbol.h>
 #include <gtsam/linear/GaussianFactorGraph.h>
 #include <gtsam/nonlinear/LevenbergMarquardtOptimizer.h>
@@ -55,14 +58,14 @@ void RioFrontend::add_imu(const ImuSample& s) {
 
 gtsam::Vector3 RioFrontend::gyro_at(double t) const {
   if (imu_.empty()) return gtsam::Vector3::Zero();
-  for (std::size_t i = 1; i < imu_.size(); ++i)
-    if (imu_[i].t >= t) {
-      const auto& a = imu_[i - 1];
-      const auto& b = imu_[i];
-      const double w = std::clamp((t - a.t) / (b.t - a.t), 0.0, 1.0);
-      return (1 - w) * a.gyro + w * b.gyro;
-    }
-  return imu_.back().gyro;
+  // add_imu keeps the stamps strictly increasing: the first sample at or after t, by bisection
+  // (called twice a frame: the radar factor and the published state).
+  const auto b = std::lower_bound(std::next(imu_.begin()), imu_.end(), t,
+                                  [](const ImuSample& s, double time) { return s.t < time; });
+  if (b == imu_.end()) return imu_.back().gyro;
+  const auto& a = *std::prev(b);
+  const double w = std::clamp((t - a.t) / (b->t - a.t), 0.0, 1.0);
+  return (1 - w) * a.gyro + w * b->gyro;
 }
 
 template <class F>
