@@ -5,11 +5,13 @@
 
 #include <gtsam/inference/Symbol.h>
 #include <gtsam/linear/GaussianFactorGraph.h>
+#include <gtsam/linear/VectorValues.h>
 #include <gtsam/nonlinear/LevenbergMarquardtOptimizer.h>
 #include <gtsam/nonlinear/LinearContainerFactor.h>
 #include <gtsam/nonlinear/Marginals.h>
 #include <gtsam/slam/PriorFactor.h>
 
+#include "rsrio/rio/first_estimate_factor.hpp"
 #include "rsrio/rio/radar_velocity_factor.hpp"
 
 namespace rsrio::rio {
@@ -201,6 +203,17 @@ void RioFrontend::marginalise_oldest() {
   const auto [bayes_tree, marginal] = linear->eliminatePartialMultifrontal(old);
   for (const auto& gf : *marginal)
     if (gf) kept.push_back(boost::make_shared<gtsam::LinearContainerFactor>(gf, values_));
+  if (options_.first_estimate_jacobians) {
+    // The marginal's variables at its linearisation point: every factor that reaches them, now
+    // and later (add_factor), takes its Jacobians there.
+    first_estimates_.clear();
+    for (const auto& gf : *marginal)
+      if (gf)
+        for (gtsam::Key key : gf->keys())
+          if (!first_estimates_.exists(key)) first_estimates_.insert(key, values_.at(key));
+    for (auto& f : kept)
+      if (f && !boost::dynamic_pointer_cast<gtsam::LinearContainerFactor>(f)) f = at_first_estimates(f);
+  }
   graph_ = kept;
   if (options_.whole_run_smoother)
     for (gtsam::Key key : old) whole_values_.insert(key, values_.at(key));
@@ -208,8 +221,14 @@ void RioFrontend::marginalise_oldest() {
   window_.pop_front();
 }
 
+gtsam::NonlinearFactor::shared_ptr RioFrontend::at_first_estimates(const gtsam::NonlinearFactor::shared_ptr& factor) const {
+  for (gtsam::Key key : factor->keys())
+    if (first_estimates_.exists(key)) return boost::make_shared<FirstEstimateFactor>(factor, first_estimates_);
+  return factor;
+}
+
 void RioFrontend::add_factor(const gtsam::NonlinearFactor::shared_ptr& factor) {
-  graph_.push_back(factor);
+  graph_.push_back(at_first_estimates(factor));  // (first_estimates_ is empty without the option)
   if (options_.whole_run_smoother) whole_graph_.push_back(factor);
 }
 
@@ -225,6 +244,29 @@ gtsam::PreintegratedCombinedMeasurements RioFrontend::add_imu_factor(std::uint64
   }
   graph_.push_back(boost::make_shared<gtsam::CombinedImuFactor>(X(prev), V(prev), X(k), V(k), B(prev), B(k), pim));
   return pim;
+}
+
+double RioFrontend::heading_gauge_information() const {
+  // A turn by d about the world's z through the origin: R -> Rz R = R Exp(R^T z d), t -> t + (z x t) d,
+  // v -> v + (z x v) d, biases unchanged; in GTSAM's tangents (rotation, then translation in the
+  // body frame for Pose3). Its information is d^T H d for unit d, H the window's Hessian.
+  const gtsam::Vector3 z = gtsam::Vector3::UnitZ();
+  gtsam::VectorValues d;
+  gtsam::Ordering ordering;
+  for (const auto& [k, t] : window_) {
+    const gtsam::Pose3& pose = values_.at<gtsam::Pose3>(X(k));
+    gtsam::Vector6 xi;
+    xi << pose.rotation().unrotate(z), pose.rotation().unrotate(z.cross(pose.translation()));
+    d.insert(X(k), xi);
+    d.insert(V(k), gtsam::Vector3(z.cross(values_.at<gtsam::Vector3>(V(k)))));
+    d.insert(B(k), gtsam::Vector6::Zero());
+    ordering.push_back(X(k));
+    ordering.push_back(V(k));
+    ordering.push_back(B(k));
+  }
+  const auto [H, eta] = graph_.linearize(values_)->hessian(ordering);
+  const gtsam::Vector dv = d.vector(ordering);
+  return dv.dot(H * dv);
 }
 
 std::vector<SmoothedState> RioFrontend::smooth_whole_run(int max_iterations) const {

@@ -69,6 +69,7 @@ OdometryOptions load_odometry_options(OptionsNode& root) {
   f.read("accel_bias_random_walk", fo.accel_bias_random_walk, positive);
   f.read("gyro_bias_random_walk", fo.gyro_bias_random_walk, positive);
   f.read("bias_acc_omega_int", fo.bias_acc_omega_int, {0.0, 1.0});
+  f.read("first_estimate_jacobians", fo.first_estimate_jacobians);
   std::vector<double> xyz{fo.body_T_radar.x(), fo.body_T_radar.y(), fo.body_T_radar.z()};
   std::vector<double> rpy = rpy_deg_of(fo.body_T_radar.rotation());
   std::string imu_interpolation = to_string(fo.imu_interpolation);
@@ -135,6 +136,7 @@ void print(std::ostream& out, const OdometryOptions& o) {
       << "  accel_bias_random_walk: " << f.accel_bias_random_walk << "\n"
       << "  gyro_bias_random_walk: " << f.gyro_bias_random_walk << "\n"
       << "  bias_acc_omega_int: " << f.bias_acc_omega_int << "\n"
+      << "  first_estimate_jacobians: " << b(f.first_estimate_jacobians) << "\n"
       << "  imu_interpolation: " << to_string(f.imu_interpolation) << "\n"
       << "  radar_translation_m: "
       << v3({f.body_T_radar.x(), f.body_T_radar.y(), f.body_T_radar.z()}) << "\n"

@@ -209,6 +209,7 @@ TEST_CASE("odometry options load strictly from the sections and print back", "[o
   CHECK(o.frontend.position_from_velocity == d.frontend.position_from_velocity);
   CHECK(o.frontend.whole_run_smoother == d.frontend.whole_run_smoother);
   CHECK(o.frontend.bias_acc_omega_int == d.frontend.bias_acc_omega_int);
+  CHECK(o.frontend.first_estimate_jacobians == d.frontend.first_estimate_jacobians);
   CHECK(o.dsp.cfar.mode == d.dsp.cfar.mode);
   CHECK(std::abs(o.frontend.body_T_radar.z() + 0.07) < 1e-12);
   CHECK(o.frontend.radar_time_offset_s == 0.004);
@@ -245,6 +246,11 @@ TEST_CASE("positions from the velocities load, print back, and a wrong value nam
 TEST_CASE("the whole-run smoother loads, prints back, and a wrong value names its key", "[odometry]") {
   check_flag_option("frontend", "whole_run_smoother", "yes please",
                     [](OdometryOptions& o) -> bool& { return o.frontend.whole_run_smoother; });
+}
+
+TEST_CASE("first-estimate Jacobians load, print back, and a wrong value names its key", "[odometry]") {
+  check_flag_option("frontend", "first_estimate_jacobians", "fej",
+                    [](OdometryOptions& o) -> bool& { return o.frontend.first_estimate_jacobians; });
 }
 
 TEST_CASE("GTSAM's initial-bias noise for the window prints, loads back, and a bad value names its key", "[odometry]") {

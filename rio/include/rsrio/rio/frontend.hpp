@@ -37,9 +37,19 @@ struct FrontendOptions {
   // the window's tilt against gravity is 2-3 times better, but its heading jumps by up to
   // 0.8-2.4 deg within a second on the longer sequences (the whole window turning about the
   // world's origin: its marginals are linearised at older estimates; taking position and heading
-  // out of them stops the jumps but lets the height drift), and the backend ends worse
-  // (rio/RESULTS.md, 2026-12-07). The whole-run batch, which has no marginals, always takes the IMU's own noise.
+  // out of them stops the jumps but lets the height drift; first_estimate_jacobians stops them and
+  // keeps the tilt), and the backend ends worse on some sequences and better on others
+  // (rio/RESULTS.md, splat/RESULTS.md, 2026-12-07). The whole-run batch, which has no marginals,
+  // always takes the IMU's own noise.
   double bias_acc_omega_int = 1e-5;
+  // First-estimate Jacobians (first_estimate_factor.hpp): the factors that still reach the state a
+  // marginal prior was linearised on take their Jacobians at that state's estimate then, not at
+  // later ones, so that the prior and they agree on the unobservable heading and position. With
+  // bias_acc_omega_int 0 the heading then no longer jumps (sequence 4's largest change in a second
+  // 0.12 deg against 0.82) and the tilt keeps its factor of 2; with 1e-5 it changes nothing that
+  // shows. Off by default: the backend's end of run on it is mixed (sequence 4 better on both
+  // draws of the noise, sequence 1's heading and sequence 3's translation worse; splat/RESULTS.md).
+  bool first_estimate_jacobians = false;
   // How the signal runs between two IMU samples when it is integrated. kLinear: the straight line
   // through them, right for instantaneous samples (the simulator's; a MEMS IMU's output data are its
   // filter's value at the stamp). kHold: each sample held until the next (zero-order hold), which
@@ -176,6 +186,13 @@ class RioFrontend {
   const gtsam::PreintegrationCombinedParams& imu_params() const { return *params_; }
   /// ... and the whole-run batch's (the IMU's own noise: no biasAccOmegaInt).
   const gtsam::PreintegrationCombinedParams& whole_run_imu_params() const { return *whole_params_; }
+  /// The information (1/rad^2) the window holds on a turn of all its states about the world's
+  /// vertical through the origin: the heading's gauge, which no measurement observes. A consistent
+  /// window holds what the first state's priors put there (1/prior_rotation_sigma^2, and its
+  /// velocity's) less what the gyro's noise has blurred since; relinearising the factors of a
+  /// marginal's state adds to it (first_estimate_jacobians).
+  /// A diagnostic: linearises the window (1-2 ms).
+  double heading_gauge_information() const;
   /// whole_run_smoother: every state of the run so far, solved as one batch over every factor added
   /// (Levenberg-Marquardt from the window's estimates, at most max_iterations), in time order.
   /// Empty without the option. Takes under a second for a run of minutes (3191 states: 0.6 s);
@@ -209,8 +226,13 @@ class RioFrontend {
   gtsam::NonlinearFactorGraph whole_graph_;
   gtsam::Values whole_values_;
   std::vector<std::pair<std::uint64_t, double>> whole_times_;
-  /// graph_.add, and whole_graph_ with the option.
+  /// graph_.add (at_first_estimates), and whole_graph_ with the option (as it is).
   void add_factor(const gtsam::NonlinearFactor::shared_ptr& factor);
+  /// first_estimate_jacobians: the variables the newest marginal lies on, at its linearisation
+  /// point (empty without the option).
+  gtsam::Values first_estimates_;
+  /// factor as a FirstEstimateFactor if it reaches first_estimates_, else itself.
+  gtsam::NonlinearFactor::shared_ptr at_first_estimates(const gtsam::NonlinearFactor::shared_ptr& factor) const;
   /// The IMU factor from state prev to state k over [t0, t1]: into the window with params_, and
   /// with the option into the batch with whole_params_. Returns the window's preintegration.
   gtsam::PreintegratedCombinedMeasurements add_imu_factor(std::uint64_t prev, std::uint64_t k, double t0, double t1,
