@@ -15,8 +15,8 @@ FirstEstimateFactor::FirstEstimateFactor(gtsam::NonlinearFactor::shared_ptr fact
 boost::shared_ptr<gtsam::GaussianFactor> FirstEstimateFactor::linearize(const gtsam::Values& values) const {
   const auto today = factor_->linearize(values);
   if (first_.empty()) return today;
-  gtsam::Values at_first = values;
-  at_first.update(first_);
+  gtsam::Values at_first;  // the factor's own variables only
+  for (gtsam::Key key : keys()) at_first.insert(key, first_.exists(key) ? first_.at(key) : values.at(key));
   const auto jacobians = boost::dynamic_pointer_cast<gtsam::JacobianFactor>(factor_->linearize(at_first));
   const auto residual = boost::dynamic_pointer_cast<gtsam::JacobianFactor>(today);
   if (!jacobians || !residual) return today;
