@@ -823,6 +823,8 @@ int main(int argc, char** argv) {
          << ", \"loop_rejected_refinement\": " << st.loop_rejected_refinement
          << ", \"loop_retries\": " << st.loop_retries << ", \"reference_gaussians\": " << st.reference_gaussians
          << ", \"loop_frozen_alignments\": " << st.loop_frozen_alignments
+         << ", \"heading_drift_deg_s\": " << st.heading_drift_deg_s
+         << ", \"heading_drift_updates\": " << st.heading_drift_updates
          << "}";
     }
     js << "\n}\n";

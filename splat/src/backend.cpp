@@ -315,7 +315,20 @@ bool Backend::add_frame(const BackendFrame& frame) {
   kf.rd = Eigen::Map<const Image<float>>(frame.dsp->rd.data(), grid_.range_bins, grid_.doppler_bins);
   for (const rsrio::DspPoint& p : frame.dsp->points)
     if (classify_point(p, v_odom, options_) == PointClass::static_point) kf.points.emplace_back(p.x, p.y, p.z);
-  if (!keyframes_.empty()) kf.loop_yaw = keyframes_.back().loop_yaw;
+  if (!keyframes_.empty()) {
+    const Keyframe& prev = keyframes_.back();
+    kf.loop_yaw = prev.loop_yaw;
+    // heading_drift_window_s: the frontend's heading drifts on since the last revisit; turn the
+    // new keyframe about the one before by what the rate says it drifted between them.
+    const double dyaw = heading_drift_rate_ * (kf.t - prev.t);
+    if (dyaw != 0) {
+      const Eigen::Vector3d pivot = prev.world_T_radar.translation();
+      const Eigen::Matrix3d R = Eigen::AngleAxisd(dyaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      kf.world_T_radar.translation() = pivot + R * (kf.world_T_radar.translation() - pivot);
+      kf.world_T_radar.linear() = R * kf.world_T_radar.linear();
+      kf.loop_yaw += dyaw;
+    }
+  }
   const bool first = keyframes_.empty();
   if (first) {
     kf.velocity_correction = v_odom;
@@ -1136,6 +1149,36 @@ void Backend::align_revisit(std::size_t k) {
   move_gaussians(scene_, anchors_);
   move_gaussians(reference_, reference_anchors_);
   ++stats_.loop_closures;
+  estimate_heading_drift();
+}
+
+void Backend::estimate_heading_drift() {
+  if (options_.heading_drift_window_s <= 0 || keyframes_.empty()) return;
+  // Least squares of loop_yaw = a + rate t over the window's keyframes: after a closure the pose
+  // graph's ramp since the earlier pass plus the rate already carried forward, so the slope is
+  // the whole drift rate, not what is left of it.
+  const double t_end = keyframes_.back().t;
+  double n = 0, st = 0, sy = 0, stt = 0, sty = 0;
+  for (auto it = keyframes_.rbegin(); it != keyframes_.rend() && t_end - it->t <= options_.heading_drift_window_s;
+       ++it) {
+    const double t = it->t - t_end;  // centred near 0: no cancellation on long runs
+    n += 1;
+    st += t;
+    sy += it->loop_yaw;
+    stt += t * t;
+    sty += t * it->loop_yaw;
+  }
+  const double det = n * stt - st * st;
+  if (n < 3 || !(det > 0)) return;
+  const double rate = (n * sty - st * sy) / det;
+  if (!std::isfinite(rate)) {
+    ++stats_.nan_guard_hits;
+    return;
+  }
+  const double max_rate = options_.heading_drift_max_deg_s * kDeg;
+  heading_drift_rate_ = std::clamp(rate, -max_rate, max_rate);
+  stats_.heading_drift_deg_s = heading_drift_rate_ / kDeg;
+  ++stats_.heading_drift_updates;
 }
 
 OdomCorrection Backend::correction_at(const Keyframe& k) const {

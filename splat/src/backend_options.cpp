@@ -96,6 +96,8 @@ BackendOptions load_backend_options(OptionsNode node) {
   node.read("odometry_prior_sigma_deg", o.odometry_prior_sigma_deg, {1e-6, 180.0});
   node.read("odometry_prior_across_sigma_m", o.odometry_prior_across_sigma_m, {0.0, 100.0});
   node.read("odometry_yaw_sigma_deg", o.odometry_yaw_sigma_deg, {0.0, 180.0});
+  node.read("heading_drift_window_s", o.heading_drift_window_s, {0.0, 1e6});
+  node.read("heading_drift_max_deg_s", o.heading_drift_max_deg_s, {0.0, 10.0});
   node.read("tilt_prior_sigma_deg", o.tilt_prior_sigma_deg, {1e-6, 180.0});
   node.read("height_prior_sigma_m", o.height_prior_sigma_m, {1e-6, 100.0});
   node.read("lr_pose_translation", o.lr_pose_translation, {0.0, 10.0});
@@ -226,6 +228,8 @@ void print(std::ostream& out, const BackendOptions& o) {
       << "  odometry_prior_sigma_deg: " << o.odometry_prior_sigma_deg << "\n"
       << "  odometry_prior_across_sigma_m: " << o.odometry_prior_across_sigma_m << "\n"
       << "  odometry_yaw_sigma_deg: " << o.odometry_yaw_sigma_deg << "\n"
+      << "  heading_drift_window_s: " << o.heading_drift_window_s << "\n"
+      << "  heading_drift_max_deg_s: " << o.heading_drift_max_deg_s << "\n"
       << "  tilt_prior_sigma_deg: " << o.tilt_prior_sigma_deg << "\n"
       << "  height_prior_sigma_m: " << o.height_prior_sigma_m << "\n"
       << "  lr_pose_translation: " << o.lr_pose_translation << "\n"

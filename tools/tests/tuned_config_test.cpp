@@ -47,7 +47,7 @@ TEST_CASE("config/rsrio-tuned.yaml: the shipped options with the tuned keys chan
   const std::set<std::string> expected{"drop_ambiguous_azimuth", "position_from_velocity",   "pose_dof",
                                        "rd_loss",                "final_ba",                 "ba_window",
                                        "odometry_yaw_sigma_deg", "odometry_prior_sigma_deg", "loop_graph",
-                                       "loop_image_alignment",   "loop_match"};
+                                       "loop_image_alignment",   "loop_match",               "heading_drift_window_s"};
   CHECK(differing_keys(shipped, tuned) == expected);
   CHECK(tuned.odometry.points.drop_ambiguous_azimuth);
   CHECK(tuned.odometry.frontend.position_from_velocity);
@@ -61,6 +61,7 @@ TEST_CASE("config/rsrio-tuned.yaml: the shipped options with the tuned keys chan
   CHECK(tuned.backend.loop_graph.odometry_sigma_deg == 0.05);
   CHECK(tuned.backend.loop_image_alignment);
   CHECK_FALSE(tuned.backend.loop.refine_peak);
+  CHECK(tuned.backend.heading_drift_window_s == 0);
   // The comparison itself sees a change.
   rsrio::EstimatorOptions moved = tuned;
   moved.backend.loop_graph.loop_sigma_m *= 2;

@@ -227,6 +227,19 @@ struct BackendOptions {
   // frame at the first keyframe, so a keyframe's yaw should stay near the frontend's. Without it
   // the yaw of sequences 3 and 4 random-walked by 3-6 deg over a few minutes, either way.
   double odometry_yaw_sigma_deg = 2.0;
+  // The frontend's heading drift as a rate (a gyro z bias its window does not settle drifts the
+  // heading at a steady 0.01-0.04 deg/s on the simulated walks), so that what the revisits took
+  // out goes on being taken out until the next one: between revisits the images do not see such a
+  // drift (they track the map the last keyframes made), and the yaw prior holds the keyframes at
+  // the frontend's heading. After each loop closure the rate is the least-squares slope over time
+  // of the heading the loop closures and this rate added to the frontend's (Keyframe::loop_yaw)
+  // over the keyframes of the last heading_drift_window_s; each new keyframe then starts turned by
+  // rate * (its time since the one before) about the one before, and its yaw prior with it.
+  // 0: off. The estimate is clamped to +-heading_drift_max_deg_s. On a draw of the noise where the
+  // frontend's heading drifts 6-8 deg over a run, sequence 4's end of run 0.253 -> 0.041 m; on
+  // Table II's draw level (splat/RESULTS.md, 2026-12-07, late).
+  double heading_drift_window_s = 120;
+  double heading_drift_max_deg_s = 0.1;
   // 6-DoF only: the frontend's tilt (roll, pitch) and the keyframe's starting height as a soft
   // prior on every optimised pose (vertical_prior), in every stage, the revisit alignment too.
   // The images hardly see them: without it sequence 1's rotation error came out 12.4 deg
@@ -393,6 +406,9 @@ struct BackendStats {
   std::size_t gaussians = 0;
   std::size_t reference_gaussians = 0;  // loop_frozen_reference's copy
   std::uint64_t loop_frozen_alignments = 0;  // revisit alignments that drew the copy
+  // heading_drift_window_s: the frontend's heading drift rate as last estimated, and how often.
+  double heading_drift_deg_s = 0;
+  std::uint64_t heading_drift_updates = 0;
   double rd_gain = 0;
   StageStats pose, mapping, ba;
   StageStats final_ba;        // Backend::finish
@@ -411,8 +427,9 @@ struct Keyframe {
   // Per azimuth column, the range rows [0, n) that take part in the losses (occlusion_rows);
   // empty: all. Goes with the images.
   std::vector<int> visible_rows;
-  // The heading that loop closures added to the frontend's at this keyframe: the yaw prior's
-  // reference is the frontend's heading plus it (a loop correction is not undone by the prior).
+  // The heading that loop closures (and the drift rate carried forward since: heading_drift_window_s)
+  // added to the frontend's at this keyframe: the yaw prior's reference is the frontend's heading
+  // plus it (a loop correction is not undone by the prior).
   double loop_yaw = 0;
   double z_reference = 0;  // the height it started at (the 6-DoF vertical prior's)
   // The keyframe before it was dropped (max_keyframes), or it is the first: its RD velocity is
@@ -620,6 +637,9 @@ class Backend {
   /// Revisit alignment of the newest keyframe k (options' loop_*): match, and when accepted, a
   /// loop constraint, the pose graph, and the keyframes and their Gaussians moved.
   void align_revisit(std::size_t k);
+  /// heading_drift_window_s: the frontend's heading drift rate from the keyframes' loop_yaw after
+  /// a loop closure (stats().heading_drift_deg_s).
+  void estimate_heading_drift();
   /// The revisit's image alignment (loop_image_alignment): keyframe k's pose from its RA image
   /// against the earlier pass's Gaussians (the frozen copy where `nearest` is frozen), started at
   /// `start`; the keyframe itself is left as it was.
@@ -647,6 +667,7 @@ class Backend {
   std::vector<std::int32_t> reference_anchors_;  // per Gaussian of reference_: its keyframe
   std::size_t last_loop_attempt_ = 0;
   double floor_z_ = 0;  // the first keyframe's radar height (level_floor)
+  double heading_drift_rate_ = 0;  // rad/s, heading_drift_window_s's estimate
   OdomCorrection correction_;
   BackendStats stats_;
   // The previous frame (for the frontend's instantaneous velocity).
