@@ -177,7 +177,14 @@ std::size_t Backend::replace_odometry(const std::function<std::optional<gtsam::P
   const Eigen::Isometry3d radar_T_body = options_.body_T_radar.inverse();
   for (Keyframe& kf : keyframes_)
     if (const std::optional<gtsam::Pose3> pose = odom_at(kf.t); pose && pose->matrix().allFinite()) {
+      // The yaw prior's reference (the odometry's heading plus loop_yaw) is a heading in the map
+      // that the loops found against the old odometry: it stays where it was. loop_yaw kept as
+      // it was would add the loops' correction of the old odometry's drift to a heading that no
+      // longer has that drift.
+      const double old_yaw = PlanarPose::from_world_T_radar(kf.odom_T_body * options_.body_T_radar).yaw;
       kf.odom_T_body = to_isometry(*pose);
+      const double new_yaw = PlanarPose::from_world_T_radar(kf.odom_T_body * options_.body_T_radar).yaw;
+      kf.loop_yaw += std::remainder(old_yaw - new_yaw, 2 * std::numbers::pi);
       // Roll and pitch are the frontend's (3-DoF; 6-DoF: where the end-of-run BA starts them and
       // what its prior holds them to): the new odometry's tilt on the keyframe's map pose, its
       // heading and the body's position kept. Else the corrections (correction_at) would carry the

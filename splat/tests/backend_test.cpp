@@ -748,8 +748,15 @@ TEST_CASE("Backend: replace_odometry gives the keyframes the new odometry's tilt
   feed_straight_walk(backend, rig, 14, dt, speed, 1.0);
   const auto before = backend.keyframe_poses();
   REQUIRE(before.size() >= 3);
-  // The whole run re-solved: 2 % longer, rolled 0.5 deg and pitched -0.3 deg; none for the first keyframe.
-  const gtsam::Rot3 tilt = gtsam::Rot3::Ypr(0, -0.3 * kDeg, 0.5 * kDeg);
+  // The yaw prior's reference of each keyframe: the odometry's radar heading plus what loops added.
+  const auto yaw_reference = [&](const Keyframe& kf) {
+    return PlanarPose::from_world_T_radar(kf.odom_T_body * o.body_T_radar).yaw + kf.loop_yaw;
+  };
+  std::vector<double> reference_before;
+  for (const Keyframe& kf : backend.keyframes()) reference_before.push_back(yaw_reference(kf));
+  // The whole run re-solved: 2 % longer, turned 2 deg, rolled 0.5 deg and pitched -0.3 deg; none
+  // for the first keyframe.
+  const gtsam::Rot3 tilt = gtsam::Rot3::Ypr(2 * kDeg, -0.3 * kDeg, 0.5 * kDeg);
   const double first = before.front().first;
   const auto smoothed = [&](double t) -> std::optional<gtsam::Pose3> {
     if (std::abs(t - first) < 1e-9) return std::nullopt;
@@ -766,6 +773,10 @@ TEST_CASE("Backend: replace_odometry gives the keyframes the new odometry's tilt
     CHECK((up_in_body(pose) - up_in_body(*smoothed(t))).norm() < 1e-9);  // the new tilt
     CHECK((pose.translation() - before[k].second.translation()).norm() < 1e-12);  // the body where it was
     CHECK(std::abs(std::remainder(pose.rotation().yaw() - before[k].second.rotation().yaw(), 2 * std::numbers::pi)) < 1e-4);
+    // The yaw prior keeps pulling towards the heading it had (loop_yaw takes the new odometry's
+    // turn out), not towards the new odometry's 2 deg.
+    CHECK(std::abs(std::remainder(yaw_reference(backend.keyframes()[k]) - reference_before[k], 2 * std::numbers::pi)) <
+          1e-12);
     // The end-of-run trajectory from the new odometry: the keyframe's map pose at its own time,
     // and the new odometry's tilt between keyframes.
     CHECK(pose_distance(backend.revised(t, *smoothed(t)), pose) < 1e-9);

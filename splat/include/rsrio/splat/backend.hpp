@@ -561,7 +561,8 @@ class Backend {
   /// Every keyframe's frontend pose replaced by odom_at(its t) where that gives one (the frontend's
   /// whole run solved as one batch: rio::RioFrontend::smooth_whole_run), so that the end-of-run BA's
   /// odometry priors (relative motion; 6-DoF: the tilt) and revised() follow it. The keyframes'
-  /// map poses keep their heading and position and take the new odometry's roll and pitch.
+  /// map poses keep their heading and position and take the new odometry's roll and pitch, and the
+  /// yaw prior's reference (the odometry's heading plus Keyframe::loop_yaw) keeps its heading.
   /// Before finish(); not causal. Returns the keyframes whose pose was replaced.
   std::size_t replace_odometry(const std::function<std::optional<gtsam::Pose3>(double t)>& odom_at);
   /// The end-of-run BA (options().final_ba; nothing when its max_iterations is 0). Call once the
