@@ -738,8 +738,9 @@ TEST_CASE("Backend: published poses are the refined keyframe pose composed with 
   CHECK(backend.stats().nan_guard_hits == 0);
 }
 
-TEST_CASE("Backend: replace_odometry gives the keyframes the new odometry's tilt, keeps their heading and position",
-          "[splat][backend]") {
+TEST_CASE(
+    "Backend: replace_odometry gives the keyframes the new odometry's tilt, keeps their heading, position and yaw reference",
+    "[splat][backend]") {
   const SyntheticRig rig(6);
   BackendOptions o = deterministic_options(5, 5, 5, 10);
   o.body_T_radar.translation() = Eigen::Vector3d(0.05, 0, 0.02);
@@ -756,11 +757,11 @@ TEST_CASE("Backend: replace_odometry gives the keyframes the new odometry's tilt
   for (const Keyframe& kf : backend.keyframes()) reference_before.push_back(yaw_reference(kf));
   // The whole run re-solved: 2 % longer, turned 2 deg, rolled 0.5 deg and pitched -0.3 deg; none
   // for the first keyframe.
-  const gtsam::Rot3 tilt = gtsam::Rot3::Ypr(2 * kDeg, -0.3 * kDeg, 0.5 * kDeg);
+  const gtsam::Rot3 attitude = gtsam::Rot3::Ypr(2 * kDeg, -0.3 * kDeg, 0.5 * kDeg);
   const double first = before.front().first;
   const auto smoothed = [&](double t) -> std::optional<gtsam::Pose3> {
     if (std::abs(t - first) < 1e-9) return std::nullopt;
-    return gtsam::Pose3(tilt, gtsam::Point3(1.02 * speed * t, 0, 0));
+    return gtsam::Pose3(attitude, gtsam::Point3(1.02 * speed * t, 0, 0));
   };
   CHECK(backend.replace_odometry(smoothed) == before.size() - 1);
   const auto after = backend.keyframe_poses();
