@@ -30,6 +30,12 @@ gtsam::Pose3 to_pose3(const Eigen::Isometry3d& T) {
   return gtsam::Pose3(gtsam::Rot3(q.normalized()), gtsam::Point3(T.translation()));
 }
 
+// The keyframe's radar pose as its odometry has it, in the plane: what the odometry priors hold
+// the map pose to (the yaw prior: its heading plus Keyframe::loop_yaw).
+PlanarPose odometry_radar_pose(const Keyframe& kf, const Eigen::Isometry3d& body_T_radar) {
+  return PlanarPose::from_world_T_radar(kf.odom_T_body * body_T_radar);
+}
+
 enum class PointClass { unusable, dynamic, static_point };
 
 /// Whether a CFAR point may seed the map and take part in revisit alignment: finite, strong
@@ -181,10 +187,9 @@ std::size_t Backend::replace_odometry(const std::function<std::optional<gtsam::P
       // that the loops found against the old odometry: it stays where it was. loop_yaw kept as
       // it was would add the loops' correction of the old odometry's drift to a heading that no
       // longer has that drift.
-      const double old_yaw = PlanarPose::from_world_T_radar(kf.odom_T_body * options_.body_T_radar).yaw;
+      const double old_yaw = odometry_radar_pose(kf, options_.body_T_radar).yaw;
       kf.odom_T_body = to_isometry(*pose);
-      const double new_yaw = PlanarPose::from_world_T_radar(kf.odom_T_body * options_.body_T_radar).yaw;
-      kf.loop_yaw += std::remainder(old_yaw - new_yaw, 2 * std::numbers::pi);
+      kf.loop_yaw += std::remainder(old_yaw - odometry_radar_pose(kf, options_.body_T_radar).yaw, 2 * std::numbers::pi);
       // Roll and pitch are the frontend's (3-DoF; 6-DoF: where the end-of-run BA starts them and
       // what its prior holds them to): the new odometry's tilt on the keyframe's map pose, its
       // heading and the body's position kept. Else the corrections (correction_at) would carry the
@@ -738,7 +743,7 @@ double Backend::odometry_prior(const std::vector<std::size_t>& poses, const std:
                                std::vector<Vector6d>& grad_left) const {
   const double sigma_r = options_.odometry_prior_sigma_deg * kDeg;
   auto planar = [](const Eigen::Isometry3d& world_T_radar) { return PlanarPose::from_world_T_radar(world_T_radar); };
-  auto odom_radar = [&](const Keyframe& kf) { return planar(kf.odom_T_body * options_.body_T_radar); };
+  auto odom_radar = [&](const Keyframe& kf) { return odometry_radar_pose(kf, options_.body_T_radar); };
   double loss = 0;
   // Each pair (k-1, k) once: from k when k is optimised, from k-1 when only k-1 is.
   auto pair = [&](std::size_t a, std::size_t b) {
