@@ -210,7 +210,8 @@ void Backend::finish() {
     views.push_back(k);
     if (k != 0) poses.push_back(k);  // the first keyframe is the gauge, as in every BA window
   }
-  run_stage(views, poses, true, true, options_.final_ba, options_.final_ba.max_iterations, stats_.final_ba);
+  run_stage(views, poses, true, options_.final_ba_rd_loss, options_.final_ba, options_.final_ba.max_iterations,
+            stats_.final_ba);
   cleanup_scene();
   update_correction();
   stats_.gaussians = scene_.size();

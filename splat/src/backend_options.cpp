@@ -55,6 +55,7 @@ BackendOptions load_backend_options(OptionsNode node) {
   load_stage(node.child("mapping"), o.mapping);
   load_stage(node.child("ba"), o.ba);
   load_stage(node.child("final_ba"), o.final_ba);
+  node.read("final_ba_rd_loss", o.final_ba_rd_loss);
   node.read("first_keyframe_mapping_iterations", o.first_keyframe_mapping_iterations, {0, 100000});
   node.read("pose_coverage_mask", o.pose_coverage_mask);
   node.read("coverage_margin_bins", o.coverage_margin_bins, {0, 1000});
@@ -187,7 +188,8 @@ void print(std::ostream& out, const BackendOptions& o) {
   stage("mapping", o.mapping);
   stage("ba", o.ba);
   stage("final_ba", o.final_ba);
-  out << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
+  out << "  final_ba_rd_loss: " << (o.final_ba_rd_loss ? "true" : "false") << "\n"
+      << "  first_keyframe_mapping_iterations: " << o.first_keyframe_mapping_iterations << "\n"
       << "  pose_coverage_mask: " << (o.pose_coverage_mask ? "true" : "false") << "\n"
       << "  coverage_margin_bins: " << o.coverage_margin_bins << "\n"
       << "  occlusion_threshold: " << o.occlusion_threshold << "\n"
