@@ -101,6 +101,38 @@ rsrio::eval::StampedPose stamped(double t, const Eigen::Isometry3d& T) {
   return p;
 }
 
+// The correlation (log-compressed, each at its 99th percentile) of the RD rendered from a frame's
+// measured RA at a given radar-frame velocity with the frame's measured RD. Soft-binning sigma =
+// the DSP's Doppler main lobe (hann), as the backend's default.
+class RdCorrelation {
+ public:
+  RdCorrelation(const Frame& f, const RadarImageGrid& grid)
+      : ra_(Eigen::Map<const Image<float>>(f.ra.data(), grid.range_bins, grid.azimuth_bins)),
+        renderer_(grid, options()) {
+    const Image<float> rd = Eigen::Map<const Image<float>>(f.rd.data(), grid.range_bins, grid.doppler_bins);
+    compression_.reference = percentile_reference(f.rd, 99.0);
+    compress(rd, compression_, measured_);
+  }
+  double operator()(const Eigen::Vector3d& velocity) {
+    renderer_.render(ra_, velocity, rendered_);
+    CompressionOptions c = compression_;
+    c.reference = percentile_reference({rendered_.data(), std::size_t(rendered_.size())}, 99.0);
+    compress(rendered_, c, rendered_c_);
+    return correlation(rendered_c_, measured_, 4);
+  }
+
+ private:
+  static RdRenderOptions options() {
+    RdRenderOptions o;
+    o.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
+    return o;
+  }
+  Image<float> ra_;
+  RdRenderer<float> renderer_;
+  CompressionOptions compression_;
+  Image<float> measured_, rendered_, rendered_c_;
+};
+
 }  // namespace
 
 TEST_CASE("Gaussians at the simulator's scatterers render the RA image the DSP measures", "[splat][backend][sim]") {
@@ -161,23 +193,7 @@ TEST_CASE("RD rendered from the measured RA at the true velocity matches the DSP
   const rsrio::sim::RigState radar = s.sim->radar_state(f.t);
   const Eigen::Vector3d v = radar.rotation.transpose() * radar.velocity;  // radar frame
   REQUIRE(v.norm() > 0.5);
-  const Image<float> ra = Eigen::Map<const Image<float>>(f.ra.data(), grid.range_bins, grid.azimuth_bins);
-  const Image<float> rd = Eigen::Map<const Image<float>>(f.rd.data(), grid.range_bins, grid.doppler_bins);
-  // Soft-binning sigma = the DSP's Doppler main lobe (hann), as the backend's default.
-  RdRenderOptions ro;
-  ro.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
-  RdRenderer<float> renderer(grid, ro);
-  CompressionOptions c;
-  c.reference = percentile_reference(f.rd, 99.0);
-  Image<float> rd_c, rendered, rendered_c;
-  compress(rd, c, rd_c);
-  auto corr_at = [&](const Eigen::Vector3d& velocity) {
-    renderer.render(ra, velocity, rendered);
-    CompressionOptions cr = c;
-    cr.reference = percentile_reference({rendered.data(), std::size_t(rendered.size())}, 99.0);
-    compress(rendered, cr, rendered_c);
-    return correlation(rendered_c, rd_c, 4);
-  };
+  RdCorrelation corr_at(f, grid);
   const double at_truth = corr_at(v), mirrored = corr_at(-v), still = corr_at(Eigen::Vector3d::Zero()),
                slow = corr_at(0.7 * v), fast = corr_at(1.3 * v);
   std::printf("RD correlation (compressed) of RD rendered from the DSP's RA vs the DSP's RD, radar at %.2f m/s: "
@@ -203,22 +219,7 @@ TEST_CASE("RD rendered from the measured RA matches the DSP's RD with the radar 
   const rsrio::sim::RigState radar = s.sim->radar_state(f.t);
   const Eigen::Vector3d v = radar.rotation.transpose() * radar.velocity;  // radar frame
   REQUIRE(std::abs(v.y()) > 0.3);
-  const Image<float> ra = Eigen::Map<const Image<float>>(f.ra.data(), grid.range_bins, grid.azimuth_bins);
-  const Image<float> rd = Eigen::Map<const Image<float>>(f.rd.data(), grid.range_bins, grid.doppler_bins);
-  RdRenderOptions ro;
-  ro.kernel_sigma_bins = window_power_fwhm_bins("hann") / 2.355;
-  RdRenderer<float> renderer(grid, ro);
-  CompressionOptions c;
-  c.reference = percentile_reference(f.rd, 99.0);
-  Image<float> rd_c, rendered, rendered_c;
-  compress(rd, c, rd_c);
-  auto corr_at = [&](const Eigen::Vector3d& velocity) {
-    renderer.render(ra, velocity, rendered);
-    CompressionOptions cr = c;
-    cr.reference = percentile_reference({rendered.data(), std::size_t(rendered.size())}, 99.0);
-    compress(rendered, cr, rendered_c);
-    return correlation(rendered_c, rd_c, 4);
-  };
+  RdCorrelation corr_at(f, grid);
   const Eigen::Vector3d mirrored(v.x(), -v.y(), v.z());
   const Eigen::Vector3d forward(v.head<2>().norm(), 0.0, v.z());  // the same speed, straight ahead
   const double at_truth = corr_at(v), at_mirrored = corr_at(mirrored), at_forward = corr_at(forward);
