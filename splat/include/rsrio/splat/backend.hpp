@@ -125,8 +125,10 @@ struct BackendOptions {
   StageOptions final_ba{0, 0.0, 1e-5, 5, 0.1};
   // false: the end-of-run BA on the RA loss alone (the windows keep the RD as rd_loss says). The
   // elevation-0 RD fits the DSP's RD at 0.978 x the true speed, and over every keyframe at once its
-  // pull towards slow draws the whole walk smaller: on the simulated sequences the RA-only end-of-run
-  // BA ends 0-6 mm nearer the truth (splat/RESULTS.md, 2026-12-08). Ignored when rd_loss is false.
+  // pull towards slow draws the walk smaller: on the simulated sequences the RA-only end-of-run BA
+  // ends 3-6 mm nearer the truth on three of five and within 0.4 mm on the others, and gives back
+  // part of the heading the RD's holds in the room (splat/RESULTS.md, 2026-12-08). Ignored when
+  // rd_loss is false.
   bool final_ba_rd_loss = true;
   // Pose refinement compares only the part of the newest keyframe's images that the map explains:
   // pixels farther than coverage_margin_bins (range and azimuth) from any the map renders above
